@@ -1,0 +1,132 @@
+"""Plain data of the pipeline: options in, every stage out (ARCHITECTURE.md, rule 2).
+
+:class:`MeshOptions` holds every knob of :func:`quadmesh.mesh_polygon` with its default and
+the design note that justifies it. :class:`MeshResult` keeps every stage so that the
+viewer, the command line and the tests read one object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .mesh import QuadMesh, QualityReport, VerificationReport
+    from .polygon import Polygon
+
+__all__ = ["MeshOptions", "MeshResult", "ThickPieceResult", "ThinPartResult"]
+
+
+@dataclass(frozen=True)
+class MeshOptions:
+    """Every knob of the mesher, with its default.
+
+    Attributes:
+        n: steps per half pentagon side (Lemma 4.1; DISK.md §4: N_side = 2n on every
+            pentagon side and Carleson top edge). n = 2 is the smallest value whose disk
+            chord angles stay in [60°, 120°]; the adaptive loop raises it per thick piece.
+        depth_step: spacing of the global depth sequence d_k shared by Carleson
+            quadrilaterals and triangles (Lemmas 5.1, 6.1; DISK.md §5–§6).
+        inner_height: height h of the inner triangle T_i in the model Carleson triangle
+            (DISK.md §6; the paper's §7 wants it small relative to the triangle).
+        crosscut_ratio: A_eff = g/φ, prevertex gap over the half-width of the arc J_k whose
+            geodesic image is the crosscut around a vertex (CONFORMAL.md §3.2: circularity of
+            f(γ_k) about 1.1·φ/g).
+        lemma_A: the expansion factor A of Lemma 2.2 handed to the disk construction.
+        channel_delta: extremal-distance threshold δ below which a channel is a hyperbolic
+            thin part (CONFORMAL.md §2.3).
+        sector_ratio: λ, radius of the vertex sector over the crosscut's distance from the
+            vertex (THIN.md §A.4).
+        conformal_tol: target residual of the Schwarz–Christoffel parameter problem.
+        adaptive: raise n (2 → 3 → 4 → 6) for a thick piece whose pushed-forward quads
+            leave [60°, 120°], and redo it.
+        max_n: largest n the adaptive loop tries.
+    """
+
+    n: int = 2
+    depth_step: float = 0.25
+    inner_height: float = 1.0
+    crosscut_ratio: float = 64.0
+    lemma_A: float = 16.0
+    channel_delta: float = 0.15
+    sector_ratio: float = 0.25
+    conformal_tol: float = 1e-10
+    adaptive: bool = True
+    max_n: int = 6
+
+    def __post_init__(self) -> None:
+        if int(self.n) != self.n or self.n < 1:
+            raise ValueError(f"n must be a positive integer, got {self.n}")
+        if not 0 < self.depth_step <= 1:
+            raise ValueError(f"depth_step must be in (0, 1], got {self.depth_step}")
+        if not 0 < self.inner_height <= 2:
+            raise ValueError(f"inner_height must be in (0, 2], got {self.inner_height}")
+        if self.crosscut_ratio < 4:
+            raise ValueError(f"crosscut_ratio must be at least 4, got {self.crosscut_ratio}")
+        if self.lemma_A <= 1:
+            raise ValueError(f"lemma_A must exceed 1, got {self.lemma_A}")
+        if not 0 < self.channel_delta < 1:
+            raise ValueError(f"channel_delta must be in (0, 1), got {self.channel_delta}")
+        if not 0 < self.sector_ratio < 1:
+            raise ValueError(f"sector_ratio must be in (0, 1), got {self.sector_ratio}")
+        if self.max_n < self.n:
+            raise ValueError("max_n must be at least n")
+
+
+@dataclass(frozen=True)
+class ThickPieceResult:
+    """One thick piece: its conformal map, intervals, disk mesh and the image of that mesh.
+
+    Attributes:
+        index: position in ``Decomposition.thick``.
+        vertices: complex vertices of the piece (CCW).
+        map: the Schwarz–Christoffel map f: D → piece (``quadmesh.conformal.DiskMap``).
+        intervals: (m, 2) arcs I_j (start angle, ccw length) handed to Lemma 2.2.
+        interval_owner: per interval, ("vertex", polygon vertex index) or ("channel", id, end).
+        disk: the disk mesh of W (``quadmesh.disk.DiskMesh``), in disk coordinates.
+        image: complex positions in the plane of ``disk.vertices`` (f, and the linear map h
+            inside inner triangles).
+        n_used: steps per half pentagon side finally used for this piece.
+        fixes: what the adaptive loop changed, in order.
+    """
+
+    index: int
+    vertices: np.ndarray
+    map: Any
+    intervals: np.ndarray
+    interval_owner: tuple[tuple[Any, ...], ...]
+    disk: Any
+    image: np.ndarray
+    n_used: int
+    fixes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ThinPartResult:
+    """An explicitly meshed thin part: a vertex sector ("parabolic") or a channel
+    ("hyperbolic"). ``owner`` is the polygon vertex index or the channel index;
+    ``global_index`` maps the part's mesh vertices to the final mesh's vertices."""
+
+    kind: str
+    owner: int
+    mesh: Any
+    global_index: np.ndarray
+
+
+@dataclass(frozen=True)
+class MeshResult:
+    """Every stage of one run of :func:`quadmesh.mesh_polygon`."""
+
+    polygon: Polygon
+    options: MeshOptions
+    decomposition: Any
+    pieces: tuple[ThickPieceResult, ...]
+    thin: tuple[ThinPartResult, ...]
+    mesh: QuadMesh
+    quality: QualityReport
+    verification: VerificationReport
+    timings: dict[str, float] = field(default_factory=dict)
+    quad_source: np.ndarray | None = None
+    """Per final quad: 0 = disk mesh of a thick piece, 1 = vertex sector, 2 = channel."""
