@@ -1,0 +1,83 @@
+"""Hyperbolic-geometry toolkit for the disk construction (paper §2, DISK.md §0–§1).
+
+Disk model D (``ds = 2|dz|/(1−|z|²)``, curvature −1), upper half-plane H (``ds = |dz|/y``),
+Klein model for intersections.  Points are complex numbers; geodesics are pairs of ideal
+endpoints ``(p, q)`` oriented ``p→q``; isometries are :class:`Isometry` pairs ``(M, sigma)``,
+single or stacked.  All functions are vectorised over numpy arrays.
+"""
+
+from .geodesic import (
+    distance,
+    distance_h,
+    einstein_midpoint,
+    from_klein,
+    geodesic_circle,
+    geodesic_distance,
+    geodesic_endpoints_through,
+    geodesic_top_point,
+    intersect_geodesics,
+    perpendicular_geodesic,
+    point_towards,
+    reflect,
+    reflection,
+    side_of_geodesic,
+    tangent_direction,
+    to_klein,
+)
+from .hypercycle import (
+    geodesic_coordinates,
+    hypercycle_circle,
+    hypercycle_frame,
+    hypercycle_point,
+)
+from .isometry import (
+    CAYLEY_D_TO_H,
+    CAYLEY_H_TO_D,
+    Isometry,
+    apply_isometries,
+    cayley_d_to_h,
+    cayley_h_to_d,
+    disk_automorphism,
+    disk_automorphism_inverse,
+    mobius_apply,
+    mobius_from_points,
+    normalize_matrix,
+    phi,
+    phi_inv,
+)
+
+__all__ = [
+    "CAYLEY_D_TO_H",
+    "CAYLEY_H_TO_D",
+    "Isometry",
+    "apply_isometries",
+    "cayley_d_to_h",
+    "cayley_h_to_d",
+    "disk_automorphism",
+    "disk_automorphism_inverse",
+    "distance",
+    "distance_h",
+    "einstein_midpoint",
+    "from_klein",
+    "geodesic_circle",
+    "geodesic_coordinates",
+    "geodesic_distance",
+    "geodesic_endpoints_through",
+    "geodesic_top_point",
+    "hypercycle_circle",
+    "hypercycle_frame",
+    "hypercycle_point",
+    "intersect_geodesics",
+    "mobius_apply",
+    "mobius_from_points",
+    "normalize_matrix",
+    "perpendicular_geodesic",
+    "phi",
+    "phi_inv",
+    "point_towards",
+    "reflect",
+    "reflection",
+    "side_of_geodesic",
+    "tangent_direction",
+    "to_klein",
+]
