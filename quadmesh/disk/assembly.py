@@ -1,0 +1,405 @@
+"""The conforming quad mesh of the region W (paper §§3–6: Lemma 2.2 with Lemmas 4.1, 5.1, 6.1).
+
+Every piece of :func:`~quadmesh.disk.region.build_region`'s decomposition is meshed by moving one
+canonical mesh:
+
+* right pentagons: ``pentagon_mesh(n)`` moved by each tile's isometry (Lemma 4.1);
+* Carleson quadrilaterals: ``carleson_quad_mesh(2n, depths)`` moved by the Möbius map of the
+  model quad in H onto the quad (Lemma 5.1);
+* Carleson triangles: ``model_triangle_mesh(depths, h)`` moved by ``τ⁻¹``: ``w ↦ apex``,
+  ``−1 ↦ left foot``, ``1 ↦ right foot`` (Lemma 6.1).
+
+All pieces share one depth sequence, and the glueing is by construction (ARCHITECTURE.md
+rule 6): global vertex ids are assigned through the known topology — tile edge ↔ neighbour tile
+edge (same canonical index, since ``σ_k`` fixes edge k), quad top ↔ pentagon edge, quad side ↔
+the shared ray of the neighbouring quad or triangle.  Positions computed twice for one vertex
+are only compared as an assertion.  To keep relative accuracy for tiny pieces near T, each
+Carleson piece is placed in the frame ``φ_x`` of its top corner / apex ``x`` and mapped back.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import DiskConstructionError
+from ..hyperbolic import phi, phi_inv
+from .canonical import orient_quads
+from .carleson_quad import carleson_quad_mesh, carleson_quad_to_disk
+from .carleson_triangle import depth_sequence, model_triangle_mesh
+from .pentagon import pentagon_mesh
+from .region import KIND_J, RegionW, build_region
+
+__all__ = ["DiskMesh", "TriangleMap", "disk_mesh"]
+
+KIND_NAMES = ("pentagon", "carleson_quadrilateral", "carleson_triangle")
+
+
+@dataclass(frozen=True, eq=False)
+class TriangleMap:
+    """Placement of one Carleson triangle (paper §6–§7).
+
+    ``tau_inv``: 2×2 complex matrix of the Möbius map model-H → D (``w ↦ apex``); it equals
+    ``[[1, x], [x̄, 1]] · tau_local`` with ``x = frame`` (the apex) — use the factored form
+    (``phi_inv(frame, mobius(tau_local, ζ))``) for accuracy on tiny triangles.
+    ``inner_vertices``: global indices of the vertices in or on ∂T_i; ``inner_model`` their model
+    coordinates in H; ``center``: the model centre ``c`` of T_i.  The pipeline replaces ``f`` on
+    these vertices by ``h(ζ) = g(c) + (ζ − c)·g'(c)`` with ``g = f∘τ⁻¹`` (§7).
+    """
+
+    tau_inv: NDArray[np.complex128]
+    tau_local: NDArray[np.complex128]
+    frame: complex
+    inner_vertices: NDArray[np.int64]
+    inner_model: NDArray[np.complex128]
+    center: complex
+
+
+@dataclass(frozen=True, eq=False)
+class DiskMesh:
+    """Conforming quad mesh of W ⊂ D (Lemma 2.2 + Lemmas 4.1, 5.1, 6.1).
+
+    Attributes:
+        vertices: (V,) complex; ideal vertices have ``|z| = 1`` exactly.
+        quads: (Q, 4) int, counter-clockwise.
+        kind: (Q,) str, ``"pentagon"``, ``"carleson_quadrilateral"`` or ``"carleson_triangle"``.
+        inner: (Q,) bool, quad inside an inner triangle ``T_i``.
+        piece: (Q,) int, index of the piece: pentagons ``0..T-1``, then the quadrilaterals in
+            ``pieces.quads`` order, then the triangles.
+        pieces: the :class:`RegionW`.
+        on_circle: (V,) bool, ideal vertices (on T).
+        gamma: per interval j, the vertex indices along ``γ_j`` from the ideal endpoint at the
+            end of ``J_j`` to the one at its start (``3·N_side + 1 + 2M + 2`` vertices).
+        triangles: one :class:`TriangleMap` per Carleson triangle.
+        piece_center: (P,) complex, a point of each piece (pentagon centre, quad top midpoint,
+            triangle apex) — a local centre for power-series evaluation.
+        vertex_piece: (V,) int, a piece containing each vertex.
+        depths: the global depth sequence ``0 = d_0 < … < d_M``.
+        n: steps per half pentagon side (``N_side = 2n``).
+    """
+
+    vertices: NDArray[np.complex128]
+    quads: NDArray[np.int64]
+    kind: NDArray[np.str_]
+    inner: NDArray[np.bool_]
+    piece: NDArray[np.int64]
+    pieces: RegionW
+    on_circle: NDArray[np.bool_]
+    gamma: list[NDArray[np.int64]]
+    triangles: list[TriangleMap]
+    piece_center: NDArray[np.complex128]
+    vertex_piece: NDArray[np.int64]
+    depths: NDArray[np.float64]
+    n: int
+
+    @property
+    def n_side(self) -> int:
+        """Steps per pentagon side / Carleson top edge."""
+        return 2 * self.n
+
+
+def _check_close(
+    a: NDArray[np.complex128], b: NDArray[np.complex128], what: str, ref: ArrayLike
+) -> None:
+    """Assert that positions computed twice agree relative to the local scale ``1−|ref|``
+    (``ref``: a point of the piece, broadcast against the rows of ``a``)."""
+    ref = np.asarray(ref)
+    scale = np.maximum(1.0 - np.abs(ref), 1e-300)
+    if a.ndim == 2 and ref.ndim == 1:
+        scale = scale[:, None]
+    err = np.abs(a - b) / scale
+    if err.size and np.max(err) > 1e-4:
+        raise DiskConstructionError(
+            f"{what}: shared vertices disagree (relative error {np.max(err):.2e}); "
+            "the pieces do not fit together"
+        )
+
+
+def _mobius_batch(M: NDArray[np.complex128], z: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    a, b, c, d = (M[:, None, 0, 0], M[:, None, 0, 1], M[:, None, 1, 0], M[:, None, 1, 1])
+    return (a * z + b) / (c * z + d)
+
+
+def _three_point_maps(
+    z: NDArray[np.complex128], w: NDArray[np.complex128]
+) -> NDArray[np.complex128]:
+    """Matrices (k, 2, 2) of the Möbius maps sending ``z[0..2] ↦ w[:, 0..2]`` (DISK.md §1)."""
+
+    def S(p0, p1, p2):
+        m = np.empty((*np.broadcast(p0, p1, p2).shape, 2, 2), dtype=np.complex128)
+        m[..., 0, 0] = p2 - p1
+        m[..., 0, 1] = -p0 * (p2 - p1)
+        m[..., 1, 0] = p2 - p0
+        m[..., 1, 1] = -p1 * (p2 - p0)
+        return m
+
+    sz = S(z[0], z[1], z[2])
+    sw = S(w[:, 0], w[:, 1], w[:, 2])
+    inv = np.empty_like(sw)
+    inv[:, 0, 0] = sw[:, 1, 1]
+    inv[:, 0, 1] = -sw[:, 0, 1]
+    inv[:, 1, 0] = -sw[:, 1, 0]
+    inv[:, 1, 1] = sw[:, 0, 0]
+    out = inv @ sz[None]
+    det = out[:, 0, 0] * out[:, 1, 1] - out[:, 0, 1] * out[:, 1, 0]
+    return out / np.sqrt(det)[:, None, None]
+
+
+def disk_mesh(
+    intervals: ArrayLike | RegionW,
+    *,
+    A: float | None = None,
+    n: int = 2,
+    depth_step: float = 0.25,
+    inner_height: float = 1.0,
+) -> DiskMesh:
+    """Conforming quad mesh of W for arcs ``intervals`` (Lemma 2.2 and §§4–6 of the paper).
+
+    Args:
+        intervals: (m, 2) arcs (start angle, CCW length) — or an already built :class:`RegionW`.
+        A: expansion factor of Lemma 2.2 (required unless a RegionW is given).
+        n: steps per half pentagon side; ``N_side = 2n`` on every pentagon side and Carleson top.
+        depth_step: spacing of the global depth sequence (``depth_sequence(inner_height, step)``).
+        inner_height: height ``h`` of the inner triangle ``T_i`` of the Carleson-triangle model.
+
+    Raises:
+        DiskConstructionError: if Lemma 2.2's hypotheses fail or the pieces do not fit.
+    """
+    if isinstance(intervals, RegionW):
+        R = intervals
+    else:
+        if A is None:
+            raise DiskConstructionError("disk_mesh needs the expansion factor A")
+        R = build_region(intervals, A)
+    if int(n) != n or n < 1:
+        raise DiskConstructionError(
+            f"n (steps per half side) must be a positive integer, got {n!r}"
+        )
+    n = int(n)
+    ns = 2 * n
+    depths = depth_sequence(inner_height, depth_step)
+    Md = depths.size - 1
+    PM = pentagon_mesh(n)
+    CQ = carleson_quad_mesh(ns, depths)
+    TM = model_triangle_mesh(depths, inner_height)
+
+    # ------------------------------------------------------------------ pentagons
+    T = R.n_pentagons
+    Vp = PM.n_vertices
+    side_idx = np.stack([PM.sides[f"edge{k}"] for k in range(5)])  # (5, ns+1)
+    nbr = R.tile_neighbour
+    t_i, k_i = np.nonzero(nbr >= 0)
+    t_j = nbr[t_i, k_i]
+    if np.any(nbr[t_j, k_i] != t_i):
+        raise DiskConstructionError("tile neighbour relation is not symmetric")
+    a = (t_i[:, None] * Vp + side_idx[k_i]).ravel()
+    b = (t_j[:, None] * Vp + side_idx[k_i]).ravel()
+    graph = coo_matrix((np.ones(a.size), (a, b)), shape=(T * Vp, T * Vp))
+    n_pv, labels = connected_components(graph, directed=False)
+    pent_gid = labels.reshape(T, Vp)
+    pent_pos = R.tiles.apply_rows(PM.vertices)  # (T, Vp)
+    rep = np.empty(n_pv, dtype=np.complex128)
+    rep[labels] = pent_pos.ravel()
+    _check_close(rep[labels], pent_pos.ravel(), "pentagon-pentagon edges", rep[labels])
+    pent_quads = pent_gid[np.arange(T)[:, None, None], orient_quads(PM.quads, R.tiles.sigma)]
+
+    # ------------------------------------------------------------------ Carleson quadrilaterals
+    C = len(R.cover)
+    nonj = np.array([c.kind != KIND_J for c in R.cover])
+    Qc = len(R.quads)
+    q_cover = np.array([q.cover for q in R.quads], dtype=np.int64)
+    q_tile = np.array([q.pentagon for q in R.quads], dtype=np.int64)
+    q_edge = np.array([q.edge for q in R.quads], dtype=np.int64)
+    top_ids = pent_gid[q_tile[:, None], side_idx[q_edge]]  # (Qc, ns+1) from V_k to V_{k+1}
+    flip = R.tiles.sigma[q_tile]
+    top_ids = np.where(flip[:, None], top_ids[:, ::-1], top_ids)
+    # rays under each non-J arc i: positions s = 0..m_i; ray(i, s) index = ray_base[i] + s
+    m_i = np.array([len(x) for x in R.quad_of_cover])
+    n_rays_i = np.where(nonj, m_i + 1, 0)
+    ray_base = np.concatenate([[0], np.cumsum(n_rays_i)[:-1]])
+    NR = int(n_rays_i.sum())
+    rank = np.cumsum(nonj) - 1  # rank of a non-J arc among non-J arcs
+    ray_left = np.arange(Qc) + rank[q_cover]  # quads are numbered consecutively in cover order
+    ray_right = ray_left + 1
+    # ray apex ids
+    ray_apex = np.empty(NR, dtype=np.int64)
+    ray_apex[ray_left] = top_ids[:, 0]
+    ray_apex[ray_right] = top_ids[:, -1]
+    shared = ray_right[:-1] == ray_left[1:]
+    if np.any(top_ids[:-1, -1][shared] != top_ids[1:, 0][shared]):
+        raise DiskConstructionError("consecutive Carleson quad tops do not share their corner")
+    # global ids: pentagon vertices, then rays (M+1 new each), then quad/triangle interiors
+    nxt = n_pv
+    ray_ids = np.empty((NR, Md + 2), dtype=np.int64)
+    ray_ids[:, 0] = ray_apex
+    ray_ids[:, 1:] = nxt + np.arange(NR * (Md + 1)).reshape(NR, Md + 1)
+    nxt += NR * (Md + 1)
+    cq_top, cq_left, cq_right = CQ.sides["top"], CQ.sides["left"], CQ.sides["right"]
+    fixed_q = np.zeros(CQ.n_vertices, dtype=bool)
+    fixed_q[np.concatenate([cq_top, cq_left, cq_right])] = True
+    free_q = np.flatnonzero(~fixed_q)
+    q_ids = np.empty((Qc, CQ.n_vertices), dtype=np.int64)
+    q_ids[:, free_q] = nxt + np.arange(Qc * free_q.size).reshape(Qc, free_q.size)
+    nxt += Qc * free_q.size
+    q_ids[:, cq_left] = ray_ids[ray_left]
+    q_ids[:, cq_right] = ray_ids[ray_right]
+    q_ids[:, cq_top] = top_ids  # corners agree with the rays' apices by construction
+    # placement, in the frame of each quad's top corner u0
+    u0 = rep[top_ids[:, 0]]
+    u1 = rep[top_ids[:, -1]]
+    cs = np.array([c.start for c in R.cover])
+    cl = np.array([c.length for c in R.cover])
+    ea = np.exp(1j * cs[q_cover])
+    eb = np.exp(1j * (cs[q_cover] + cl[q_cover]))
+    vf, qq = carleson_quad_to_disk(
+        CQ, np.zeros(Qc, complex), phi(u0, u1), phi(u0, ea), phi(u0, eb), -np.ones(Qc), tol=1e-4
+    )
+    q_pos = phi_inv(u0[:, None], vf)
+    base = CQ.sides["base"]
+    q_pos[:, base] /= np.abs(q_pos[:, base])
+    _check_close(q_pos[:, cq_top], rep[top_ids], "Carleson quad tops on pentagon edges", u0)
+    ray_pos = np.empty((NR, Md + 2), dtype=np.complex128)
+    ray_pos[ray_right] = q_pos[:, cq_right]
+    ray_pos[ray_left] = q_pos[:, cq_left]
+    _check_close(
+        q_pos[:-1, cq_right][shared],
+        q_pos[1:, cq_left][shared],
+        "side rays of neighbouring Carleson quads",
+        u1[:-1][shared],
+    )
+    cq_quads = q_ids[np.arange(Qc)[:, None, None], qq]
+
+    # ------------------------------------------------------------------ Carleson triangles
+    Tr = len(R.triangles)
+    t_cross = np.array([t.crossing for t in R.triangles], dtype=np.int64)
+    t_left_ray = ray_base[t_cross] + m_i[t_cross]  # last ray under X_i
+    t_right_ray = ray_base[(t_cross + 1) % C]  # first ray under X_{i+1}
+    apex_ids = ray_ids[t_left_ray, 0]
+    if np.any(apex_ids != ray_ids[t_right_ray, 0]):
+        raise DiskConstructionError("triangle side rays do not share the apex vertex")
+    tl, tr_ = np.asarray(TM.left), np.asarray(TM.right)
+    fixed_t = np.zeros(TM.vertices.size, dtype=bool)
+    fixed_t[np.concatenate([tl, tr_])] = True
+    free_t = np.flatnonzero(~fixed_t)
+    t_ids = np.empty((Tr, TM.vertices.size), dtype=np.int64)
+    t_ids[:, free_t] = nxt + np.arange(Tr * free_t.size).reshape(Tr, free_t.size)
+    nxt += Tr * free_t.size
+    t_ids[:, tl] = ray_ids[t_left_ray]
+    t_ids[:, tr_] = ray_ids[t_right_ray]
+    apex = rep[apex_ids]
+    lf = np.array([t.left_foot for t in R.triangles], dtype=np.complex128)
+    rf = np.array([t.right_foot for t in R.triangles], dtype=np.complex128)
+    w_model = 1j * (1.0 + math.sqrt(2.0))
+    tau_local = (
+        _three_point_maps(
+            np.array([-1.0, 1.0, w_model], dtype=np.complex128),
+            np.stack([phi(apex, lf), phi(apex, rf), np.zeros(Tr, complex)], axis=1),
+        )
+        if Tr
+        else np.zeros((0, 2, 2), complex)
+    )
+    t_pos = (
+        phi_inv(apex[:, None], _mobius_batch(tau_local, TM.vertices[None, :]))
+        if Tr
+        else (np.zeros((0, TM.vertices.size), complex))
+    )
+    tb = np.asarray(TM.base)
+    t_pos[:, tb] /= np.abs(t_pos[:, tb])
+    _check_close(t_pos[:, tl], ray_pos[t_left_ray], "triangle left sides", apex)
+    _check_close(t_pos[:, tr_], ray_pos[t_right_ray], "triangle right sides", apex)
+    tri_quads = t_ids[np.arange(Tr)[:, None, None], np.asarray(TM.quads)[None]]
+
+    # ------------------------------------------------------------------ global arrays
+    V = nxt
+    verts = np.empty(V, dtype=np.complex128)
+    verts[:n_pv] = rep
+    verts[ray_ids[:, 1:]] = ray_pos[:, 1:]
+    verts[q_ids[:, free_q]] = q_pos[:, free_q]
+    verts[t_ids[:, free_t]] = t_pos[:, free_t]
+    on_circle = np.zeros(V, dtype=bool)
+    on_circle[ray_ids[:, -1]] = True
+    on_circle[q_ids[:, base]] = True
+    on_circle[t_ids[:, tb]] = True
+    verts[on_circle] /= np.abs(verts[on_circle])
+
+    quads = np.concatenate(
+        [pent_quads.reshape(-1, 4), cq_quads.reshape(-1, 4), tri_quads.reshape(-1, 4)]
+    )
+    nq_p, nq_c, nq_t = PM.n_quads, CQ.n_quads, len(TM.quads)
+    kind = np.repeat(np.array(KIND_NAMES), [T * nq_p, Qc * nq_c, Tr * nq_t])
+    inner = np.concatenate(
+        [np.zeros(T * nq_p + Qc * nq_c, bool), np.tile(np.asarray(TM.inner, bool), Tr)]
+    )
+    piece = np.concatenate(
+        [
+            np.repeat(np.arange(T), nq_p),
+            T + np.repeat(np.arange(Qc), nq_c),
+            T + Qc + np.repeat(np.arange(Tr), nq_t),
+        ]
+    )
+    piece_center = np.concatenate(
+        [R.tiles.apply_rows(np.zeros(1))[:, 0], q_pos[:, cq_top[ns // 2]], apex]
+    )
+    vertex_piece = np.empty(V, dtype=np.int64)
+    vertex_piece[quads.ravel()] = np.repeat(piece, 4)
+
+    # ------------------------------------------------------------------ γ_j vertex lists
+    gamma: list[NDArray[np.int64]] = [np.zeros(0, np.int64)] * R.m
+    for i, c in enumerate(R.cover):
+        if c.kind != KIND_J:
+            continue
+        e = R.cover_edges[i]
+        ids = pent_gid[e[:, 0][:, None], side_idx[e[:, 1]]]
+        ids = np.where(R.tiles.sigma[e[:, 0]][:, None], ids[:, ::-1], ids)  # start -> end side
+        if np.any(ids[1:, 0] != ids[:-1, -1]):
+            raise DiskConstructionError(f"the pentagon edges on γ_{c.interval} do not chain")
+        chain = np.concatenate([ids[0], *(x[1:] for x in ids[1:])])
+        r_end = ray_ids[ray_base[(i + 1) % C]]  # ray of γ under J^r, towards J's end
+        r_start = ray_ids[ray_base[i - 1] + m_i[i - 1]]  # ray of γ under J^l, towards J's start
+        if r_end[0] != chain[-1] or r_start[0] != chain[0]:
+            raise DiskConstructionError(
+                f"the rays of γ_{c.interval} do not meet its pentagon edges"
+            )
+        gamma[c.interval] = np.concatenate([r_end[::-1], chain[::-1][1:-1], r_start])
+
+    # ------------------------------------------------------------------ triangle maps
+    inner_v = np.asarray(TM.inner_vertex, bool)
+    inner_idx = np.flatnonzero(inner_v)
+    frame_m = np.zeros((Tr, 2, 2), np.complex128)
+    frame_m[:, 0, 0] = 1.0
+    frame_m[:, 1, 1] = 1.0
+    frame_m[:, 0, 1] = apex
+    frame_m[:, 1, 0] = np.conj(apex)
+    tau_inv = frame_m @ tau_local
+    model_c = complex(TM.center)
+    tmaps = [
+        TriangleMap(
+            tau_inv=tau_inv[k],
+            tau_local=tau_local[k],
+            frame=complex(apex[k]),
+            inner_vertices=t_ids[k, inner_idx],
+            inner_model=np.asarray(TM.vertices)[inner_idx],
+            center=model_c,
+        )
+        for k in range(Tr)
+    ]
+    return DiskMesh(
+        vertices=verts,
+        quads=quads,
+        kind=kind,
+        inner=inner,
+        piece=piece,
+        pieces=R,
+        on_circle=on_circle,
+        gamma=gamma,
+        triangles=tmaps,
+        piece_center=piece_center,
+        vertex_piece=vertex_piece,
+        depths=depths,
+        n=n,
+    )

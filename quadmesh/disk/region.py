@@ -1,0 +1,660 @@
+"""Lemma 2.2: the region W and its decomposition into right pentagons, Carleson quadrilaterals
+and Carleson triangles (paper §3; DISK.md §3).
+
+Given arcs ``I_j`` of T whose A-fold concentric expansions are disjoint and shorter than π:
+
+1. ``J_j`` = the minimal-length I5 arc containing ``√A·I_j`` (Lemma 2.1, local search);
+   ``γ_j`` its geodesic; ``P0`` the tile above the top point of ``γ_j``, ``P1, P2`` its
+   neighbours along ``γ_j``; ``J^l_j, J^r_j`` the far arcs of the edges of ``P1, P2`` that are
+   perpendicular to ``γ_j`` (labelled by which endpoint of ``J_j`` they contain).
+2. ``W`` = hyperbolic convex hull of ``T ∖ ∪J_j``.
+3. A cover of T with overlap ≤ 2 in circular order ``…, J^l_k, J_k, J^r_k, K, …, K, J^l_{k+1}, …``.
+   The K arcs are chosen greedily (furthest reach) among the *maximal* I5 arcs compactly inside
+   the gaps of ``F = ∪J_j``, which are found locally: grow tiles from the ``P0``'s without
+   crossing an edge whose far arc is a ``J/J^l/J^r`` arc or lies compactly inside a gap; the
+   gap edges where the growth stops are exactly the maximal candidates it can see.
+4. The pentagons are the tiles not below any cover geodesic (grown from the ``P0``'s, stopping
+   at cover geodesics); their boundary edges on cover arc ``X_i`` are the tops of the Carleson
+   quadrilaterals under ``X_i`` (none under ``J`` arcs, which carry 3 pentagon edges); the
+   crossing points ``p_i = γ(X_i) ∩ γ(X_{i+1})`` are where the boundary edges switch arcs.
+5. A Carleson triangle sits at every crossing of two non-``J`` cover arcs.
+
+Everything is local: the work is proportional to the number of pieces (Lemma 2.3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import DiskConstructionError
+from ..hyperbolic import Isometry, phi
+from .tessellation import (
+    EDGE_MIDPOINTS,
+    P0_VERTICES,
+    REFLECTIONS,
+    TWO_PI,
+    arc_contains_point,
+    arcs_match,
+    grow_tiles,
+    locate,
+    minimal_containing_arc,
+    tile_edge_far_arcs,
+    top_point,
+)
+
+__all__ = [
+    "CarlesonQuadrilateral",
+    "CarlesonTriangle",
+    "CoverArc",
+    "RegionW",
+    "RightPentagon",
+    "build_region",
+    "crossing_check",
+    "in_W",
+    "piece_membership",
+]
+
+KIND_J, KIND_JL, KIND_JR, KIND_K = "J", "Jl", "Jr", "K"
+
+
+@dataclass(frozen=True)
+class CoverArc:
+    """One arc ``X_i`` of the overlap-≤2 cover (Lemma 2.2 proof), in circular order.
+
+    ``kind`` is ``"J"``, ``"Jl"``, ``"Jr"`` or ``"K"``; ``interval`` the index j of the chain for
+    J/Jl/Jr arcs (-1 for K).  ``start``/``length``: the arc (radians, CCW).  ``a``/``b``: the
+    ideal endpoints of its geodesic at the start and at the end of the arc.
+    """
+
+    kind: str
+    interval: int
+    start: float
+    length: float
+
+    @property
+    def end(self) -> float:
+        """End angle ``start + length`` reduced mod 2π."""
+        return (self.start + self.length) % TWO_PI
+
+    @property
+    def a(self) -> complex:
+        """Ideal endpoint at the start of the arc."""
+        return complex(np.exp(1j * self.start))
+
+    @property
+    def b(self) -> complex:
+        """Ideal endpoint at the end of the arc."""
+        return complex(np.exp(1j * (self.start + self.length)))
+
+
+@dataclass(frozen=True, eq=False)
+class RightPentagon:
+    """A kept tile ``g(P0)`` of T5 (a right pentagon of W).
+
+    ``neighbours[k]``: index of the kept pentagon across edge k, or -1; ``edge_cover[k]``: the
+    cover arc whose geodesic carries edge k (then edge k is the top of a Carleson
+    quadrilateral, or lies on a ``γ_j``), or -1.
+    """
+
+    index: int
+    isometry: Isometry
+    neighbours: tuple[int, ...]
+    edge_cover: tuple[int, ...]
+
+    @property
+    def center(self) -> complex:
+        """Hyperbolic centre ``g(0)``."""
+        return complex(self.isometry(0.0))
+
+    @property
+    def vertices(self) -> NDArray[np.complex128]:
+        """The 5 vertices ``g(V_k)``."""
+        return self.isometry(P0_VERTICES)
+
+
+@dataclass(frozen=True)
+class CarlesonQuadrilateral:
+    """Carleson quadrilateral number ``s`` under cover arc ``cover`` (Lemma 2.2, Lemma 5.1).
+
+    Its top is the segment ``[u_s, u_{s+1}]`` (length L) of the cover geodesic, oriented from the
+    arc's start side to its end side; it is edge ``edge`` of pentagon ``pentagon``.  ``flip``
+    is True if that edge runs ``V_{k+1} → V_k`` in this direction.  The sides are the rays
+    perpendicular to the top at ``u_s`` ("left") and ``u_{s+1}`` ("right"), down to T on the
+    arc's side.  ``left``/``right`` name the neighbour across each side: ``("quad", index)``,
+    ``("triangle", index)`` or ``("gamma", j)`` (the side is a ray of ``γ_j`` on ∂W).
+    """
+
+    cover: int
+    s: int
+    u0: complex
+    u1: complex
+    pentagon: int
+    edge: int
+    flip: bool
+    left: tuple[str, int]
+    right: tuple[str, int]
+
+
+@dataclass(frozen=True)
+class CarlesonTriangle:
+    """Carleson triangle at the crossing ``p_i`` of cover arcs ``X = X_i`` and ``Y = X_{i+1}``.
+
+    ``apex = p_i``; ``left_foot = Y.start`` and ``right_foot = X.end`` (unit complex numbers);
+    its base is the arc ``X ∩ Y``.  The left side (apex to left foot, along Y's geodesic) is
+    shared with the last quad under X, the right side (along X's geodesic) with the first quad
+    under Y: ``left_quad``/``right_quad``.
+    """
+
+    crossing: int
+    apex: complex
+    left_foot: complex
+    right_foot: complex
+    X: int
+    Y: int
+    left_quad: int
+    right_quad: int
+
+
+@dataclass(frozen=True, eq=False)
+class RegionW:
+    """Output of Lemma 2.2 (see the module docstring).
+
+    Attributes:
+        intervals: the input arcs ``I_j`` (m, 2), (start, length).
+        A: the expansion factor.
+        J, Jl, Jr: (m, 2) arcs ``J_j``, ``J^l_j``, ``J^r_j`` (in input order).
+        gamma: (m, 2) complex ideal endpoints of ``γ_j``: (start of J_j, end of J_j).
+        cover: the cover arcs ``X_i`` in circular order.
+        crossings: (C,) complex, ``p_i = γ(X_i) ∩ γ(X_{i+1})`` (indices mod C).
+        tiles: stacked isometries of the pentagons; ``tile_neighbour`` (T, 5),
+            ``tile_edge_cover`` (T, 5) as in :class:`RightPentagon`.
+        cover_edges: per cover arc, (m_i, 2) int array of (pentagon, edge) along its geodesic
+            from the arc's start side to its end side.
+        quads, triangles: the Carleson pieces.
+        quad_of_cover: per cover arc, the indices of its quads in order (empty for J).
+        chain_tiles: (m, 3) pentagon indices of (P_l, P0, P_r) of every γ_j (P_l next to J^l).
+        lemma21_ratio: |J_j| / |√A I_j| (Lemma 2.1's constant, measured).
+    """
+
+    intervals: NDArray[np.float64]
+    A: float
+    J: NDArray[np.float64]
+    Jl: NDArray[np.float64]
+    Jr: NDArray[np.float64]
+    gamma: NDArray[np.complex128]
+    cover: tuple[CoverArc, ...]
+    crossings: NDArray[np.complex128]
+    tiles: Isometry
+    tile_neighbour: NDArray[np.int64]
+    tile_edge_cover: NDArray[np.int64]
+    cover_edges: tuple[NDArray[np.int64], ...]
+    quads: tuple[CarlesonQuadrilateral, ...]
+    triangles: tuple[CarlesonTriangle, ...]
+    quad_of_cover: tuple[NDArray[np.int64], ...]
+    chain_tiles: NDArray[np.int64]
+    lemma21_ratio: NDArray[np.float64] = field(repr=False)
+
+    @property
+    def m(self) -> int:
+        """Number of intervals."""
+        return int(self.intervals.shape[0])
+
+    @property
+    def n_pentagons(self) -> int:
+        """Number of right pentagons."""
+        return len(self.tiles)
+
+    @property
+    def pentagons(self) -> tuple[RightPentagon, ...]:
+        """The pentagons as :class:`RightPentagon` objects."""
+        return tuple(
+            RightPentagon(
+                i,
+                self.tiles[i],
+                tuple(int(x) for x in self.tile_neighbour[i]),
+                tuple(int(x) for x in self.tile_edge_cover[i]),
+            )
+            for i in range(self.n_pentagons)
+        )
+
+    @property
+    def n_pieces(self) -> int:
+        """Total number of pieces (pentagons + quadrilaterals + triangles)."""
+        return self.n_pentagons + len(self.quads) + len(self.triangles)
+
+
+# --------------------------------------------------------------------------- helpers
+def _validate(intervals: ArrayLike, A: float) -> NDArray[np.float64]:
+    try:
+        iv = np.asarray(intervals, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DiskConstructionError(f"intervals must be a numeric (m, 2) array: {exc}") from exc
+    if iv.ndim != 2 or iv.shape[1] != 2 or iv.shape[0] < 1:
+        raise DiskConstructionError(f"intervals must have shape (m, 2), m >= 1; got {iv.shape}")
+    if not np.all(np.isfinite(iv)):
+        raise DiskConstructionError("intervals must be finite")
+    if not (np.isfinite(A) and A > 1.0):
+        raise DiskConstructionError(f"Lemma 2.2 needs A > 1, got A = {A!r}")
+    if np.any(iv[:, 1] <= 0.0):
+        raise DiskConstructionError("interval lengths must be positive")
+    if np.any(A * iv[:, 1] >= math.pi):
+        j = int(np.argmax(A * iv[:, 1]))
+        raise DiskConstructionError(
+            f"hypothesis of Lemma 2.2 violated: A·I_{j} has length {A * iv[j, 1]:.4g} >= π"
+        )
+    iv = np.column_stack([np.mod(iv[:, 0], TWO_PI), iv[:, 1]])
+    m = iv.shape[0]
+    if m > 1:
+        c = np.mod(iv[:, 0] + iv[:, 1] / 2.0, TWO_PI)
+        order = np.argsort(c)
+        cs, ls = c[order], iv[order, 1]
+        gap = np.mod(np.roll(cs, -1) - cs, TWO_PI)
+        need = A * (ls + np.roll(ls, -1)) / 2.0
+        bad = gap <= need
+        if np.any(bad):
+            k = int(np.nonzero(bad)[0][0])
+            raise DiskConstructionError(
+                "hypothesis of Lemma 2.2 violated: the A-fold expansions of intervals "
+                f"{order[k]} and {order[(k + 1) % m]} overlap (A = {A:g})"
+            )
+    return iv
+
+
+def _arcs_intersect(s1: float, l1: float, s2: float, l2: float) -> bool:
+    return bool(
+        arc_contains_point(s1, l1, s2)
+        or arc_contains_point(s2, l2, s1)
+        or abs(math.remainder(s1 - s2, TWO_PI)) < 1e-15
+    )
+
+
+class _ArcTable:
+    """Sorted arcs with vectorised exact-match lookup (``arcs_match``)."""
+
+    def __init__(self, s: NDArray[np.float64], ell: NDArray[np.float64]) -> None:
+        self.order = np.argsort(s)
+        self.s = s[self.order]
+        self.ell = ell[self.order]
+
+    def lookup(self, s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        n = self.s.size
+        out = np.full(s.shape, -1, dtype=np.int64)
+        if n == 0:
+            return out
+        pos = np.searchsorted(self.s, s)
+        for off in (-1, 0):
+            j = np.mod(pos + off, n)
+            hit = arcs_match(self.s[j], self.ell[j], s, ell) & (out < 0)
+            out[hit] = self.order[j[hit]]
+        return out
+
+
+# --------------------------------------------------------------------------- Lemma 2.2
+def build_region(intervals: ArrayLike, A: float) -> RegionW:
+    """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
+
+    Args:
+        intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
+        A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
+            shorter than π.
+
+    Raises:
+        DiskConstructionError: naming the violated hypothesis, or if the construction fails
+            (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
+    """
+    iv = _validate(intervals, A)
+    m = iv.shape[0]
+    sq = math.sqrt(A)
+    centre = iv[:, 0] + iv[:, 1] / 2.0
+    es, el = np.mod(centre - sq * iv[:, 1] / 2.0, TWO_PI), sq * iv[:, 1]
+    js, jl, _, _ = minimal_containing_arc(es, el)
+    ratio = jl / el
+
+    # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r (DISK.md §2)
+    top = top_point(js, jl)
+    dtop = 2.0 * np.arctanh(np.abs(top))
+    above = np.exp(1j * (js + jl / 2.0)) * np.tanh(np.maximum(dtop - 1e-3, 0.0) / 2.0)
+    g0 = locate(above)
+    fs, fl = tile_edge_far_arcs(g0)
+    match = arcs_match(fs, fl, js[:, None], jl[:, None])
+    if not np.all(match.any(axis=1)):
+        j = int(np.nonzero(~match.any(axis=1))[0][0])
+        raise DiskConstructionError(f"no pentagon edge found on γ_{j} at its top point")
+    k0 = np.argmax(match, axis=1)
+    p1 = g0 @ REFLECTIONS[(k0 + 1) % 5]
+    p2 = g0 @ REFLECTIONS[(k0 - 1) % 5]
+    s1, l1 = tile_edge_far_arcs(p1)
+    s2, l2 = tile_edge_far_arcs(p2)
+    r = np.arange(m)
+    a1 = np.stack([s1[r, (k0 - 1) % 5], l1[r, (k0 - 1) % 5]], axis=1)
+    a2 = np.stack([s2[r, (k0 + 1) % 5], l2[r, (k0 + 1) % 5]], axis=1)
+    first_is_l = arc_contains_point(a1[:, 0], a1[:, 1], js)
+    second_is_l = arc_contains_point(a2[:, 0], a2[:, 1], js)
+    if np.any(first_is_l == second_is_l):
+        raise DiskConstructionError("J^1/J^2 do not each contain one endpoint of J")
+    Jl = np.where(first_is_l[:, None], a1, a2)
+    Jr = np.where(first_is_l[:, None], a2, a1)
+    Pl = Isometry(
+        np.where(first_is_l[:, None, None], p1.M, p2.M), np.where(first_is_l, p1.sigma, p2.sigma)
+    )
+    Pr = Isometry(
+        np.where(first_is_l[:, None, None], p2.M, p1.M), np.where(first_is_l, p2.sigma, p1.sigma)
+    )
+    J = np.stack([js, jl], axis=1)
+
+    # ---- order chains, check the J's are disjoint and chains do not reach the next J
+    order = np.argsort(js)
+    for a_, b_ in zip(order, np.roll(order, -1), strict=True):
+        if m == 1:
+            break
+        if _arcs_intersect(*J[a_], *J[b_]):
+            raise DiskConstructionError(
+                f"J_{a_} and J_{b_} overlap: A = {A:g} is too small for these intervals"
+            )
+        if _arcs_intersect(*Jr[a_], *J[b_]) or _arcs_intersect(*Jl[b_], *J[a_]):
+            raise DiskConstructionError(
+                f"the chains of J_{a_} and J_{b_} interlock: A = {A:g} is too small"
+            )
+        if arcs_match(Jr[a_, 0], Jr[a_, 1], Jl[b_, 0], Jl[b_, 1]):
+            raise DiskConstructionError(
+                f"J^r_{a_} and J^l_{b_} are the same arc: A = {A:g} is too small"
+            )
+        if arc_contains_point(Jl[b_, 0], Jl[b_, 1], Jr[a_, 0]):
+            raise DiskConstructionError(
+                f"J^r_{a_} and J^l_{b_} form a triple overlap: A = {A:g} is too small"
+            )
+
+    # ---- candidate K arcs: grow tiles, stop at J/Jl/Jr arcs and at arcs inside F-gaps
+    chain_s = np.concatenate([J[:, 0], Jl[:, 0], Jr[:, 0]])
+    chain_l = np.concatenate([J[:, 1], Jl[:, 1], Jr[:, 1]])
+    chain_table = _ArcTable(chain_s, chain_l)
+    Js, Jls = J[order, 0], J[order, 1]
+    Je = Js + Jls
+    gap_len = np.mod(np.roll(Js, -1) - Je, TWO_PI)
+    if m == 1:
+        gap_len = np.array([TWO_PI - Jls[0]])
+
+    def gap_of(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        i = np.mod(np.searchsorted(Js, s, side="right") - 1, m)
+        rel = np.mod(s - Je[i], TWO_PI)
+        inside = (rel > 0.0) & (rel + ell < gap_len[i])
+        return np.where(inside, i, -1)
+
+    cap = 20000 + 5000 * m  # Lemma 2.3: O(m) tiles (about 12 per interval measured)
+    cand_s: list[NDArray[np.float64]] = []
+    cand_l: list[NDArray[np.float64]] = []
+
+    def stop_candidates(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        lab = np.full(s.shape, -1, dtype=np.int64)
+        lab[chain_table.lookup(s, ell) >= 0] = 0
+        g = gap_of(s, ell)
+        is_c = (g >= 0) & (lab < 0)
+        lab[is_c] = 1
+        cand_s.append(s[is_c])
+        cand_l.append(ell[is_c])
+        return lab
+
+    seeds = Isometry(
+        np.concatenate([g0.M, Pl.M, Pr.M]), np.concatenate([g0.sigma, Pl.sigma, Pr.sigma])
+    )
+    grow_tiles(seeds, stop_candidates, max_tiles=cap)  # records the candidates through the callback
+    cs = np.concatenate(cand_s)
+    cl = np.concatenate(cand_l)
+    cgap = gap_of(cs, cl)
+
+    # ---- greedy overlap-≤2 cover in circular order
+    cover: list[CoverArc] = []
+    for pos, k in enumerate(order):
+        nxt = order[(pos + 1) % m]
+        cover.append(CoverArc(KIND_JL, int(k), float(Jl[k, 0]), float(Jl[k, 1])))
+        cover.append(CoverArc(KIND_J, int(k), float(J[k, 0]), float(J[k, 1])))
+        cover.append(CoverArc(KIND_JR, int(k), float(Jr[k, 0]), float(Jr[k, 1])))
+        sel = cgap == pos
+        rs = np.mod(cs[sel] - Je[pos], TWO_PI)
+        re = rs + cl[sel]
+        r_ = (Jr[k, 0] + Jr[k, 1] - Je[pos]) % TWO_PI
+        q_ = (Jl[nxt, 0] - Je[pos]) % TWO_PI
+        steps = 0
+        while r_ <= q_:
+            ok = (rs < r_) & (r_ < re)
+            if not np.any(ok):
+                raise DiskConstructionError(
+                    f"cover construction failed in the gap after J_{k}: no I5 arc inside the "
+                    "gap contains the current point"
+                )
+            best = np.flatnonzero(ok)[np.lexsort((-cl[sel][ok], -re[ok]))[0]]
+            cover.append(
+                CoverArc(
+                    KIND_K, -1, float(np.mod(Je[pos] + rs[best], TWO_PI)), float(cl[sel][best])
+                )
+            )
+            r_ = re[best]
+            steps += 1
+            if steps > 100000:
+                raise DiskConstructionError("cover construction did not terminate")
+    C = len(cover)
+    cvs = np.array([c.start for c in cover])
+    cvl = np.array([c.length for c in cover])
+    for i in range(C):
+        x, y, z = cover[i - 1], cover[i], cover[(i + 1) % C]
+        if not arc_contains_point(x.start, x.length, y.start):
+            raise DiskConstructionError(f"cover arcs {i - 1} and {i} do not overlap")
+        if C > 3 and _arcs_intersect(x.start, x.length, z.start, z.length):
+            raise DiskConstructionError(f"triple overlap at cover arc {i}")
+
+    # ---- pentagons: tiles not below any cover geodesic
+    cover_table = _ArcTable(cvs, cvl)
+
+    def stop_cover(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        return cover_table.lookup(s, ell)
+
+    seeds = Isometry(
+        np.concatenate([Pl.M, g0.M, Pr.M]), np.concatenate([Pl.sigma, g0.sigma, Pr.sigma])
+    )
+    tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=cap)
+    chain_tiles = seed_idx.reshape(3, m).T.copy()
+
+    # ---- boundary edges per cover arc, ordered from the arc's start side to its end side
+    rows, ks = np.nonzero(lab >= 0)
+    cov = lab[rows, ks]
+    sig = tiles.sigma[rows]
+    mid = tiles[rows].apply_rows(EDGE_MIDPOINTS[ks][:, None])[:, 0]
+    b_top = top_point(cvs[cov], cvl[cov])
+    direction = np.exp(1j * (cvs[cov] + cvl[cov]))  # endpoint b
+    local = phi(b_top, mid) * np.conj(phi(b_top, direction))
+    param = local.real
+    cover_edges: list[NDArray[np.int64]] = []
+    srt = np.lexsort((param, cov))
+    rows, ks, cov, sig, param = rows[srt], ks[srt], cov[srt], sig[srt], param[srt]
+    bounds = np.searchsorted(cov, np.arange(C + 1))
+    for i in range(C):
+        sl = slice(bounds[i], bounds[i + 1])
+        e = np.stack([rows[sl], ks[sl]], axis=1)
+        if e.shape[0] == 0:
+            raise DiskConstructionError(f"cover arc {i} carries no pentagon edge")
+        if cover[i].kind == KIND_J and e.shape[0] != 3:
+            raise DiskConstructionError(f"γ_{cover[i].interval} carries {e.shape[0]} != 3 edges")
+        cover_edges.append(e)
+
+    # corners: the first corner (towards the arc's start) of edge k is V_k unless g reverses
+    def corners(i: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        e = cover_edges[i]
+        g = tiles[e[:, 0]]
+        k = e[:, 1]
+        va = g.apply_rows(P0_VERTICES[k][:, None])[:, 0]
+        vb = g.apply_rows(P0_VERTICES[(k + 1) % 5][:, None])[:, 0]
+        rev = g.sigma
+        return np.where(rev, vb, va), np.where(rev, va, vb)
+
+    starts, ends = zip(*(corners(i) for i in range(C)), strict=True)
+    crossings = np.empty(C, dtype=np.complex128)
+    for i in range(C):
+        p_end = ends[i][-1]
+        p_start = starts[(i + 1) % C][0]
+        scale = 1.0 - abs(p_end)
+        if abs(p_end - p_start) > 1e-4 * scale or np.any(
+            np.abs(starts[i][1:] - ends[i][:-1]) > 1e-4 * (1.0 - np.abs(ends[i][:-1]))
+        ):
+            raise DiskConstructionError(
+                f"pentagon boundary edges on cover arcs {i} and {i + 1} do not chain at p_{i}"
+            )
+        crossings[i] = p_end
+
+    # ---- Carleson quadrilaterals and triangles
+    nonj = np.array([c.kind != KIND_J for c in cover])
+    tri_at = np.full(C, -1, dtype=np.int64)
+    n_tri = 0
+    for i in range(C):
+        if nonj[i] and nonj[(i + 1) % C]:
+            tri_at[i] = n_tri
+            n_tri += 1
+    quad_of_cover: list[NDArray[np.int64]] = []
+    q_count = 0
+    for i in range(C):
+        mi = cover_edges[i].shape[0] if nonj[i] else 0
+        quad_of_cover.append(np.arange(q_count, q_count + mi, dtype=np.int64))
+        q_count += mi
+    quads: list[CarlesonQuadrilateral] = []
+    for i in range(C):
+        if not nonj[i]:
+            continue
+        e = cover_edges[i]
+        mi = e.shape[0]
+        for s_ in range(mi):
+            if s_ > 0:
+                left = ("quad", int(quad_of_cover[i][s_ - 1]))
+            elif tri_at[i - 1] >= 0:
+                left = ("triangle", int(tri_at[i - 1]))
+            else:
+                left = ("gamma", cover[i - 1].interval)
+            if s_ < mi - 1:
+                right = ("quad", int(quad_of_cover[i][s_ + 1]))
+            elif tri_at[i] >= 0:
+                right = ("triangle", int(tri_at[i]))
+            else:
+                right = ("gamma", cover[(i + 1) % C].interval)
+            quads.append(
+                CarlesonQuadrilateral(
+                    cover=i,
+                    s=s_,
+                    u0=complex(starts[i][s_]),
+                    u1=complex(ends[i][s_]),
+                    pentagon=int(e[s_, 0]),
+                    edge=int(e[s_, 1]),
+                    flip=bool(tiles.sigma[e[s_, 0]]),
+                    left=left,
+                    right=right,
+                )
+            )
+    triangles: list[CarlesonTriangle] = []
+    for i in range(C):
+        if tri_at[i] < 0:
+            continue
+        X, Y = cover[i], cover[(i + 1) % C]
+        triangles.append(
+            CarlesonTriangle(
+                crossing=i,
+                apex=complex(crossings[i]),
+                left_foot=Y.a,
+                right_foot=X.b,
+                X=i,
+                Y=(i + 1) % C,
+                left_quad=int(quad_of_cover[i][-1]),
+                right_quad=int(quad_of_cover[(i + 1) % C][0]),
+            )
+        )
+
+    edge_cover = np.where(lab >= 0, lab, -1)
+    gamma = np.stack([np.exp(1j * J[:, 0]), np.exp(1j * (J[:, 0] + J[:, 1]))], axis=1)
+    return RegionW(
+        intervals=iv,
+        A=float(A),
+        J=J,
+        Jl=Jl,
+        Jr=Jr,
+        gamma=gamma,
+        cover=tuple(cover),
+        crossings=crossings,
+        tiles=tiles,
+        tile_neighbour=nbr,
+        tile_edge_cover=edge_cover,
+        cover_edges=tuple(cover_edges),
+        quads=tuple(quads),
+        triangles=tuple(triangles),
+        quad_of_cover=tuple(quad_of_cover),
+        chain_tiles=chain_tiles,
+        lemma21_ratio=ratio,
+    )
+
+
+def crossing_check(region: RegionW) -> NDArray[np.float64]:
+    """Angles (degrees) at which consecutive cover geodesics cross, computed at ``p_i`` in the
+    frame ``φ_{p_i}`` (where geodesics through 0 are diameters).  All should be 90."""
+    C = len(region.cover)
+    out = np.empty(C)
+    for i in range(C):
+        p = region.crossings[i]
+        X, Y = region.cover[i], region.cover[(i + 1) % C]
+        dx = phi(p, X.b) - phi(p, X.a)
+        dy = phi(p, Y.b) - phi(p, Y.a)
+        out[i] = math.degrees(abs(math.remainder(np.angle(dy / dx), math.pi)))
+    return out
+
+
+def _below(a: NDArray[np.complex128], b: NDArray[np.complex128], z: NDArray[np.complex128]):
+    """True where ``z`` lies on the arc side (right of ``a→b``) of the geodesic ``(a, b)``
+    whose arc runs counter-clockwise from ``a`` to ``b`` (Klein-model chord test)."""
+    k = 2.0 * z / (1.0 + np.abs(z) ** 2)
+    return (np.conj(b - a) * (k - a)).imag < 0.0
+
+
+def piece_membership(region: RegionW, z: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """For sample points ``z``: how many pieces of W contain each, and the index of one of them.
+
+    Piece indices: pentagons ``0..T-1``, then quads ``T..T+Q-1``, then triangles.  A pentagon
+    contains ``z`` if ``g⁻¹(z)`` is inside P0; a quad if ``z`` is below its cover geodesic and
+    between the perpendiculars at ``u_s, u_{s+1}`` (``Re ζ > 0``, ``1 < |ζ| < e^L`` in its H
+    frame); a triangle if ``z`` is below both of its geodesics.  Used by the partition tests of
+    Lemma 2.2(2).  Returns ``(count, piece)`` with ``piece = -1`` where ``count == 0``.
+    """
+    from .tessellation import EDGE_CENTERS, EDGE_RADIUS, L
+
+    z = np.atleast_1d(np.asarray(z, dtype=np.complex128))
+    count = np.zeros(z.shape, dtype=np.int64)
+    piece = np.full(z.shape, -1, dtype=np.int64)
+    T = region.n_pentagons
+    inv = region.tiles.inverse()
+    for t in range(T):
+        w = inv[t](z)
+        inside = np.all(np.abs(w[:, None] - EDGE_CENTERS[None, :]) > EDGE_RADIUS, axis=1)
+        count += inside
+        piece[inside] = t
+    for qi, q in enumerate(region.quads):
+        X = region.cover[q.cover]
+        a, b = X.a, X.b
+        lam = (q.u0 - a) / (1j * (b - q.u0))
+        zeta = (z - a) / (lam * (b - z))
+        r = np.abs(zeta)
+        inside = (zeta.real > 0) & (r > 1.0) & (r < math.exp(L))
+        count += inside
+        piece[inside] = T + qi
+    Q = len(region.quads)
+    for ti, tr in enumerate(region.triangles):
+        X, Y = region.cover[tr.X], region.cover[tr.Y]
+        inside = _below(X.a, X.b, z) & _below(Y.a, Y.b, z)
+        count += inside
+        piece[inside] = T + Q + ti
+    return count, piece
+
+
+def in_W(region: RegionW, z: ArrayLike) -> NDArray[np.bool_]:
+    """True where ``z`` lies in W (above every ``γ_j``)."""
+    z = np.atleast_1d(np.asarray(z, dtype=np.complex128))
+    out = np.ones(z.shape, dtype=bool)
+    for g in region.gamma:
+        out &= ~_below(g[0], g[1], z)
+    return out

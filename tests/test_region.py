@@ -1,0 +1,159 @@
+"""Tests of Lemma 2.2 (region W and its pieces) and Lemma 2.3 (O(m) pieces)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from quadmesh.disk.demo import EXAMPLES, spread_intervals
+from quadmesh.disk.region import (
+    RegionW,
+    build_region,
+    crossing_check,
+    in_W,
+    piece_membership,
+)
+from quadmesh.disk.tessellation import TWO_PI, L, arc_contains_arc, arc_contains_point
+from quadmesh.errors import DiskConstructionError
+from quadmesh.hyperbolic import distance
+
+
+@pytest.fixture(scope="module", params=sorted(EXAMPLES))
+def region(request: pytest.FixtureRequest) -> RegionW:
+    iv, A = EXAMPLES[request.param]
+    return build_region(iv, A)
+
+
+def test_hypotheses_are_checked() -> None:
+    with pytest.raises(DiskConstructionError, match="A > 1"):
+        build_region([[0.0, 0.1]], 1.0)
+    with pytest.raises(DiskConstructionError, match="overlap"):
+        build_region([[0.0, 0.1], [0.3, 0.1]], 4.0)
+    with pytest.raises(DiskConstructionError, match=">= π"):
+        build_region([[0.0, 1.0]], 4.0)
+    with pytest.raises(DiskConstructionError, match="shape"):
+        build_region([0.0, 1.0], 4.0)
+    with pytest.raises(DiskConstructionError):  # J's of neighbours collide: A too small
+        build_region([[0.0, 0.01], [0.25, 0.01]], 9.0)
+
+
+def test_conclusion_1_J_contains_sqrtA_I(region: RegionW) -> None:
+    iv, A = region.intervals, region.A
+    sq = math.sqrt(A)
+    c = iv[:, 0] + iv[:, 1] / 2
+    assert np.all(
+        arc_contains_arc(region.J[:, 0], region.J[:, 1], c - sq * iv[:, 1] / 2, sq * iv[:, 1])
+    )
+    assert np.all(region.lemma21_ratio >= 1.0) and np.all(region.lemma21_ratio < 16.0)
+
+
+def test_cover_overlap_at_most_two_and_right_angles(region: RegionW) -> None:
+    cov = region.cover
+    C = len(cov)
+    # every point of T lies in 1 or 2 cover arcs
+    x = np.linspace(0, TWO_PI, 20001)[:-1] + 1e-7
+    cnt = sum(arc_contains_point(c.start, c.length, x).astype(int) for c in cov)
+    assert cnt.min() >= 1 and cnt.max() <= 2
+    ang = crossing_check(region)
+    assert np.allclose(ang, 90.0, atol=1e-7)
+    # K arcs lie compactly in gaps of F = ∪J
+    for c in cov:
+        if c.kind == "K":
+            for j in range(region.m):
+                J = region.J[j]
+                assert not arc_contains_point(c.start, c.length, J[0])
+                assert not arc_contains_point(J[0], J[1], c.start)
+    kinds = [c.kind for c in cov]
+    assert kinds.count("J") == kinds.count("Jl") == kinds.count("Jr") == region.m
+    # top segments are multiples of L
+    for i in range(C):
+        p, q = region.crossings[i - 1], region.crossings[i]
+        d = float(distance(p, q))
+        n_edges = len(region.cover_edges[i])
+        assert d == pytest.approx(n_edges * L, abs=1e-7)
+
+
+def test_conclusion_2_partition_of_W(region: RegionW) -> None:
+    rng = np.random.default_rng(11)
+    n = 20000
+    z = np.sqrt(rng.uniform(0, 0.998**2, n)) * np.exp(1j * rng.uniform(0, TWO_PI, n))
+    cnt, _ = piece_membership(region, z)
+    w = in_W(region, z)
+    assert w.sum() > 0.9 * n
+    assert np.all(cnt[w] == 1)  # every sample of W in exactly one piece
+    assert np.all(cnt[~w] == 0)  # nothing outside W covered
+
+
+def test_conclusion_2_3_adjacency(region: RegionW) -> None:
+    T = region.n_pentagons
+    # each quad's top is a pentagon edge on its cover geodesic
+    for q in region.quads:
+        assert region.tile_edge_cover[q.pentagon, q.edge] == q.cover
+        assert distance(q.u0, q.u1) == pytest.approx(L, abs=1e-9)
+    # quads' sides: quads, triangles, or a γ_j; triangles only touch quads
+    gamma_sides = np.zeros(region.m, int)
+    for q in region.quads:
+        for kind, idx in (q.left, q.right):
+            assert kind in ("quad", "triangle", "gamma")
+            if kind == "gamma":
+                gamma_sides[idx] += 1
+    assert np.all(gamma_sides == 2)  # (3): two quad side rays per γ_j ...
+    for j in range(region.m):  # ... and three pentagon edges
+        i = next(k for k, c in enumerate(region.cover) if c.kind == "J" and c.interval == j)
+        assert len(region.cover_edges[i]) == 3
+    for t in region.triangles:
+        assert region.quads[t.left_quad].right == ("triangle", region.triangles.index(t))
+        assert region.quads[t.right_quad].left == ("triangle", region.triangles.index(t))
+    # pentagon neighbours are pentagons; an edge without a pentagon neighbour is on a cover arc
+    free = region.tile_neighbour < 0
+    assert np.all(region.tile_edge_cover[free] >= 0)
+    assert np.all(region.tile_neighbour[~free] < T)
+
+
+def test_tiny_intervals() -> None:
+    iv = np.array([[0.5, 3e-9], [0.5 + 2e-6, 1e-9], [3.0, 1e-7]])
+    R = build_region(iv, 100.0)
+    assert np.allclose(crossing_check(R), 90.0, atol=1e-5)
+    for q in R.quads:
+        assert distance(q.u0, q.u1) == pytest.approx(L, abs=1e-6)
+    assert R.n_pieces < 100 * R.m
+
+
+def test_lemma_2_3_pieces_per_interval_bounded() -> None:
+    per = []
+    for m in (10, 30, 100):
+        iv = spread_intervals(m, 1024.0, seed=m)
+        R = build_region(iv, 1024.0)
+        per.append(R.n_pieces / m)
+    print("pieces per interval (m = 10, 30, 100):", per)
+    assert max(per) < 60.0
+    assert max(per) / min(per) < 1.5
+
+
+def test_local_K_arcs_equal_brute_force_greedy(region: RegionW) -> None:
+    """The K arcs found by the local tile growth are those of DISK.md's greedy run over *all*
+    I5 arcs of a fine global tessellation (10191 tiles, Euclidean diameter >= 0.002)."""
+    from quadmesh.disk.tessellation import brute_force_i5_arcs, generate_tiles
+
+    tiles, _ = generate_tiles(min_diameter=0.002)
+    bs, bl = brute_force_i5_arcs(tiles)
+    J = region.J[np.argsort(region.J[:, 0])]
+    je = J[:, 0] + J[:, 1]
+    m = J.shape[0]
+    gl = np.mod(np.roll(J[:, 0], -1) - je, TWO_PI) if m > 1 else np.array([TWO_PI - J[0, 1]])
+    n_k = 0
+    for i, c in enumerate(region.cover):
+        if c.kind != "K":
+            continue
+        prev = region.cover[i - 1]
+        r = (prev.start + prev.length) % TWO_PI
+        k = next(kk for kk in range(m) if 0 < (r - je[kk]) % TWO_PI < gl[kk])
+        rel = np.mod(bs - je[k], TWO_PI)
+        cont = (rel > 0) & (rel + bl < gl[k]) & arc_contains_point(bs, bl, r)
+        best = np.flatnonzero(cont)[np.lexsort((-bl[cont], -(rel + bl)[cont]))[0]]
+        assert bs[best] == pytest.approx(c.start, abs=1e-9)
+        assert bl[best] == pytest.approx(c.length, abs=1e-9)
+        n_k += 1
+    assert n_k >= 4

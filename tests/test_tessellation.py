@@ -1,0 +1,123 @@
+"""Tests of the right-pentagon tessellation T5 and the arc family I5 (paper §3, Lemma 2.1)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from quadmesh.disk.tessellation import (
+    EDGE_CENTERS,
+    EDGE_RADIUS,
+    GROUP11,
+    P0_VERTICES,
+    REFLECTIONS,
+    TWO_PI,
+    L,
+    arc_contains_arc,
+    brute_force_i5_arcs,
+    generate_tiles,
+    locate,
+    minimal_containing_arc,
+    tile_edge_far_arcs,
+)
+from quadmesh.errors import DiskConstructionError
+from quadmesh.hyperbolic import distance
+
+
+def test_constants_of_p0() -> None:
+    assert L == pytest.approx(1.0612750619, abs=1e-10)
+    assert abs(P0_VERTICES[0]) == pytest.approx(0.397975, abs=1e-6)
+    # the edge circle is orthogonal to T through the edge midpoint at Euclidean radius t:
+    # |c| = (t + 1/t)/2, r = sqrt(|c|^2 - 1) = 1.49535 (DISK.md's 1.49863 is slightly off)
+    assert EDGE_RADIUS == pytest.approx(1.495349, abs=1e-6)
+    # each vertex lies on the circles of its two edges; sides have length L
+    for k in range(5):
+        for v in (P0_VERTICES[k], P0_VERTICES[(k + 1) % 5]):
+            assert abs(abs(v - EDGE_CENTERS[k]) - EDGE_RADIUS) < 1e-14
+        assert distance(P0_VERTICES[k], P0_VERTICES[(k + 1) % 5]) == pytest.approx(L, abs=1e-12)
+    # the reflections are involutions fixing their edge pointwise
+    for k in range(5):
+        s = REFLECTIONS[k]
+        z = np.array([0.1 + 0.2j, -0.3j])
+        assert np.allclose(s(s(z)), z, atol=1e-14)
+        assert np.allclose(s(P0_VERTICES[[k, (k + 1) % 5]]), P0_VERTICES[[k, (k + 1) % 5]])
+
+
+def test_tile_counts_match_spec() -> None:
+    assert len(generate_tiles(depth=1)[0]) == 6
+    assert len(generate_tiles(depth=2)[0]) == 21  # P0, 5 + 15 tiles two reflections away
+    tiles, nbr = generate_tiles(depth=6)
+    assert len(tiles) == 1161  # DISK.md §2
+    t_i, k_i = np.nonzero(nbr >= 0)
+    back = nbr[nbr[t_i, k_i], k_i]
+    expanded = back >= 0  # the outermost level is not expanded
+    assert expanded.sum() > 1000
+    assert np.all(back[expanded] == t_i[expanded])  # symmetric neighbour relation
+    tiles, _ = generate_tiles(min_diameter=0.01)
+    assert len(tiles) == 1996
+    # distinct centres (deduplication works at every scale)
+    c = tiles.apply_rows(np.zeros(1))[:, 0]
+    d = distance(c[:, None], c[None, :]) + np.eye(c.size) * 10
+    assert d.min() > 1.2
+
+
+def test_group11_touches_p0() -> None:
+    c = GROUP11.apply_rows(np.zeros(1))[:, 0]
+    d = distance(0.0, c[1:])
+    assert np.all(d < 2.0 * 0.842483 + 1e-6)
+    assert len(np.unique(np.round(c, 9))) == 11
+
+
+def test_point_location() -> None:
+    rng = np.random.default_rng(3)
+    r = 1.0 - 10.0 ** rng.uniform(-9, 0, 400)
+    z = r * np.exp(1j * rng.uniform(0, TWO_PI, r.size))
+    g = locate(z)
+    w = g.inverse().apply_rows(z[:, None])[:, 0]
+    assert np.all(np.abs(w[:, None] - EDGE_CENTERS[None, :]) >= EDGE_RADIUS - 1e-9)
+
+
+def test_far_arcs_do_not_contain_the_tile() -> None:
+    tiles, _ = generate_tiles(depth=3)
+    s, ell = tile_edge_far_arcs(tiles)
+    cen = tiles.apply_rows(np.zeros(1))[:, 0]
+    # the far arc's midpoint direction and the tile centre are on opposite sides of the edge
+    mid = np.exp(1j * (s + ell / 2))
+    k = 2 * cen[:, None] / (1 + np.abs(cen[:, None]) ** 2)
+    a, b = np.exp(1j * s), np.exp(1j * (s + ell))
+    side_c = np.sign((np.conj(b - a) * (k - a)).imag)
+    side_m = np.sign((np.conj(b - a) * (mid - a)).imag)
+    assert np.all(side_c * side_m < 0)
+
+
+def test_local_minimal_arc_equals_brute_force() -> None:
+    tiles, _ = generate_tiles(min_diameter=0.01)
+    bs, bl = brute_force_i5_arcs(tiles)
+    rng = np.random.default_rng(0)
+    s = rng.uniform(0, TWO_PI, 150)
+    ell = np.exp(rng.uniform(math.log(0.03), math.log(0.5), 150))
+    ms, ml, g, k = minimal_containing_arc(s, ell)
+    ok = arc_contains_arc(bs[None, :], bl[None, :], s[:, None], ell[:, None])
+    best = np.where(ok, bl[None, :], np.inf).min(axis=1)
+    assert np.max(np.abs(best - ml)) < 1e-12
+    assert np.all(arc_contains_arc(ms, ml, s, ell))
+    # the returned tile edge carries the arc
+    _fs, fl = tile_edge_far_arcs(g)
+    assert np.allclose(fl[np.arange(150), k], ml, rtol=1e-9)
+
+
+def test_minimal_arc_for_tiny_arcs() -> None:
+    rng = np.random.default_rng(5)
+    s = rng.uniform(0, TWO_PI, 40)
+    ell = 10.0 ** rng.uniform(-11, -3, 40)
+    ms, ml, _, _ = minimal_containing_arc(s, ell)
+    assert np.all(arc_contains_arc(ms, ml, s, ell))
+    ratio = ml / ell
+    assert np.all(ratio >= 1.0) and np.all(ratio < 16.0)  # Lemma 2.1's constant c (13.5 measured)
+
+
+def test_minimal_arc_rejects_huge_arc() -> None:
+    with pytest.raises(DiskConstructionError):
+        minimal_containing_arc(np.array([0.0]), np.array([3.0]))
