@@ -1,0 +1,160 @@
+"""Result types and checks shared by the thin-part meshers (paper, "Meshing the thin parts").
+
+A thin-part mesh is a plain list of quadrilaterals (vertex indices, counter-clockwise) over complex
+vertex coordinates, plus the bookkeeping the pipeline needs to glue it onto the neighbouring
+thick-piece meshes: which vertices are the crosscut vertices it was given, and which vertices lie
+on the polygon sides.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ThinPartError
+
+#: Region kinds stored per quad (index into :data:`KIND_NAMES`).
+KIND_MESH1 = 0
+KIND_MESH2 = 1
+KIND_STRIP = 2
+KIND_CONNECTION = 3
+KIND_CHAIN = 4
+KIND_NAMES: tuple[str, ...] = ("mesh1", "mesh2", "strip", "connection", "chain")
+
+
+@dataclass(frozen=True)
+class ThinMesh:
+    """Quad mesh of a parabolic thin part (vertex sector).
+
+    Attributes:
+        vertices: (V,) complex vertex coordinates.
+        quads: (Q, 4) int vertex indices, counter-clockwise.
+        kind: (Q,) uint8 region kind per quad, see :data:`KIND_NAMES`.
+        gamma_index: (P,) int, ``vertices[gamma_index[k]] == g_k`` exactly.
+        apex_index: index of the apex v.
+        side1: indices of the vertices on side 1, from the apex outwards: starts with
+            ``apex_index`` and ends with ``gamma_index[0]``.
+        side2: the same for side 2, ending with ``gamma_index[-1]``.
+        exempt_apex: True when the apex angle is the original polygon angle (m = 1) and is not
+            a new angle.
+    """
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    kind: np.ndarray
+    gamma_index: np.ndarray
+    apex_index: int
+    side1: np.ndarray
+    side2: np.ndarray
+    exempt_apex: bool
+
+    @property
+    def kind_names(self) -> list[str]:
+        """Region kind of every quad as a string."""
+        return [KIND_NAMES[k] for k in self.kind]
+
+    def angles_deg(self) -> np.ndarray:
+        """(Q, 4) interior angle at every quad corner, degrees."""
+        return quad_angles_deg(self.vertices, self.quads)
+
+    def new_angle_mask(self) -> np.ndarray:
+        """(Q, 4) bool: True for the corners that are new angles (all but the exempt apex)."""
+        mask = np.ones(self.quads.shape, dtype=bool)
+        if self.exempt_apex:
+            mask &= self.quads != self.apex_index
+        return mask
+
+
+@dataclass(frozen=True)
+class ChannelMesh:
+    """Quad mesh of a hyperbolic thin part (channel between two walls).
+
+    Attributes:
+        vertices: (V,) complex vertex coordinates.
+        quads: (Q, 4) int vertex indices, counter-clockwise.
+        kind: (Q,) uint8 region kind per quad (all :data:`KIND_CHAIN`).
+        gamma1_index, gamma2_index: (P,) int, the given crosscut vertices (exact copies).
+        wall1, wall2: vertex indices on wall 1 / wall 2, ordered from gamma1 to gamma2.
+        n_intermediate: number J of intermediate crosscuts used.
+    """
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    kind: np.ndarray
+    gamma1_index: np.ndarray
+    gamma2_index: np.ndarray
+    wall1: np.ndarray
+    wall2: np.ndarray
+    n_intermediate: int
+
+    @property
+    def kind_names(self) -> list[str]:
+        """Region kind of every quad as a string."""
+        return [KIND_NAMES[k] for k in self.kind]
+
+    def angles_deg(self) -> np.ndarray:
+        """(Q, 4) interior angle at every quad corner, degrees."""
+        return quad_angles_deg(self.vertices, self.quads)
+
+    def new_angle_mask(self) -> np.ndarray:
+        """(Q, 4) bool: every corner of a channel mesh is a new angle."""
+        return np.ones(self.quads.shape, dtype=bool)
+
+
+def quad_angles_deg(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Interior angle (degrees) at each corner of each counter-clockwise quad."""
+    z = vertices[quads]
+    prev = np.roll(z, 1, axis=1)
+    nxt = np.roll(z, -1, axis=1)
+    ang = np.angle((prev - z) / (nxt - z))
+    return np.degrees(np.mod(ang, 2.0 * np.pi))
+
+
+def quad_signed_areas(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Signed area of each quad (positive for counter-clockwise)."""
+    z = vertices[quads]
+    return 0.5 * np.sum((np.conj(z) * np.roll(z, -1, axis=1)).imag, axis=1)
+
+
+def polygon_area(z: np.ndarray) -> float:
+    """Signed area of the closed polygon with complex vertices ``z``."""
+    return float(0.5 * np.sum((np.conj(z) * np.roll(z, -1)).imag))
+
+
+def unpaired_edges(quads: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Directed edges of ``quads`` that have no oppositely oriented partner.
+
+    Returns the (E, 2) array of unpaired directed edges and a flag that is False when some
+    directed edge occurs twice (two quads with the same orientation on one edge, or a repeated
+    quad), i.e. when the mesh is not a consistently oriented surface.
+    """
+    e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2).astype(np.int64)
+    n = int(e.max()) + 1 if len(e) else 1
+    code = e[:, 0] * n + e[:, 1]
+    rev = e[:, 1] * n + e[:, 0]
+    _uniq, counts = np.unique(code, return_counts=True)
+    ok = bool(np.all(counts == 1))
+    paired = np.isin(code, rev)
+    return e[~paired], ok
+
+
+def require_angles(
+    vertices: np.ndarray,
+    quads: np.ndarray,
+    mask: np.ndarray,
+    lo: float,
+    hi: float,
+    what: str,
+    tol: float = 1e-7,
+) -> None:
+    """Raise :class:`ThinPartError` unless every masked corner angle lies in [lo, hi] degrees."""
+    areas = quad_signed_areas(vertices, quads)
+    if np.any(areas <= 0.0):
+        raise ThinPartError(f"{what}: {int(np.sum(areas <= 0))} quads are degenerate or inverted")
+    ang = quad_angles_deg(vertices, quads)[mask]
+    if ang.size and (ang.min() < lo - tol or ang.max() > hi + tol):
+        raise ThinPartError(
+            f"{what}: produced angles in [{ang.min():.2f}, {ang.max():.2f}] degrees, "
+            f"outside [{lo:g}, {hi:g}]"
+        )
