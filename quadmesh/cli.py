@@ -1,0 +1,218 @@
+"""The ``quadmesh`` command line: mesh a polygon, check a mesh, describe a polygon.
+
+Subcommands (``quadmesh <command> --help`` for details):
+
+* ``mesh POLYGON -o MESH``: run Bishop's construction (:func:`quadmesh.pipeline.mesh_polygon`)
+  and write the verified mesh;
+* ``check MESH --polygon POLYGON``: verify a mesh file against a polygon
+  (:meth:`quadmesh.mesh.QuadMesh.verify`);
+* ``info POLYGON``: vertex count, area and angle summary of a polygon file;
+* ``disk-demo -o disk.png``: picture of the disk construction (Lemma 2.2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputFormatError, MeshVerificationError, PolygonError, QuadmeshError
+
+__all__ = ["EXIT_INPUT", "EXIT_INVALID", "EXIT_OK", "EXIT_STAGE", "build_parser", "main"]
+
+EXIT_OK = 0
+EXIT_INVALID = 1
+EXIT_INPUT = 2
+EXIT_STAGE = 3
+
+_EPILOG = """\
+exit codes:
+  0  success (for check: the mesh is valid and every new angle lies in [60°, 120°])
+  1  the mesh is invalid (check failed, or the mesher's own verification failed)
+  2  usage or input error (unreadable file, invalid polygon, bad option value)
+  3  a mesher stage failed (decomposition, conformal map, disk construction, thin parts)
+
+polygon files: .json {"vertices": [[x, y], ...]}, .csv/.txt (two columns), .geojson,
+.svg (first closed path). mesh files: .json {"vertices", "quads"}, .vtk, .vtu, .msh, .obj,
+.ply, .mesh.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``quadmesh`` command."""
+    parser = argparse.ArgumentParser(
+        prog="quadmesh",
+        description="Quadrilateral meshes of simple polygons with every new angle in "
+        "[60°, 120°] (C. J. Bishop, Optimal angle bounds for quadrilateral meshes).",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser(
+        "mesh",
+        help="mesh a polygon file",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("polygon", type=Path, help="polygon file")
+    p.add_argument("-o", "--output", type=Path, required=True, help="mesh file to write")
+    p.add_argument("--n", type=int, help="steps per half pentagon side (Lemma 4.1)")
+    p.add_argument("--depth-step", type=float, help="spacing of the depth sequence (Lemma 5.1)")
+    p.add_argument("--delta", type=float, help="extremal-distance threshold of narrow channels")
+    p.add_argument("--stats", action="store_true", help="print the quality report and timings")
+    p.add_argument("--png", type=Path, help="also render the mesh into this PNG")
+    p.add_argument("-v", "--verbose", action="store_true", help="print progress to stderr")
+    p.set_defaults(func=_cmd_mesh)
+
+    p = sub.add_parser(
+        "check",
+        help="verify a mesh file against a polygon",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("mesh", type=Path, help="mesh file")
+    p.add_argument("--polygon", type=Path, required=True, help="polygon file")
+    p.add_argument("--angle-tol", type=float, default=1e-9, help="slack in degrees on 60° and 120°")
+    p.set_defaults(func=_cmd_check)
+
+    p = sub.add_parser("info", help="describe a polygon file")
+    p.add_argument("polygon", type=Path, help="polygon file")
+    p.set_defaults(func=_cmd_info)
+
+    p = sub.add_parser("disk-demo", help="render the disk construction of Lemma 2.2")
+    p.add_argument("-o", "--output", type=Path, required=True, help="PNG to write")
+    p.set_defaults(func=_cmd_disk_demo)
+    return parser
+
+
+def _read_polygon(path: Path):
+    from .io import read_polygon
+    from .polygon import validate_polygon
+
+    verts, notes = read_polygon(path)
+    for note in notes:
+        print(f"note: {note}")
+    poly = validate_polygon(verts)
+    if poly.reversed_input:
+        print("note: the polygon was clockwise and has been reversed")
+    return poly
+
+
+def _cmd_mesh(args: argparse.Namespace) -> int:
+    from .io import MESH_FORMATS, write_mesh
+    from .pipeline import MeshOptions, mesh_polygon
+
+    if args.output.suffix.lower() not in MESH_FORMATS:
+        raise InputFormatError(
+            f"{args.output}: unsupported mesh format {args.output.suffix!r} "
+            f"(use {', '.join(MESH_FORMATS)})"
+        )
+    poly = _read_polygon(args.polygon)
+    given = {"n": args.n, "depth_step": args.depth_step, "channel_delta": args.delta}
+    options = dataclasses.replace(
+        MeshOptions(), **{k: v for k, v in given.items() if v is not None}
+    )
+
+    def progress(stage: str, fraction: float) -> None:
+        print(f"[{fraction * 100:5.1f}%] {stage}", file=sys.stderr)
+
+    t0 = time.perf_counter()
+    result = mesh_polygon(poly, options, progress=progress if args.verbose else None)
+    elapsed = time.perf_counter() - t0
+    write_mesh(args.output, result.mesh)
+    q = result.quality
+    print(
+        f"wrote {args.output}: {q.n_quads} quads, {q.n_vertices} vertices for n = {poly.n}; "
+        f"new angles in [{q.min_angle:.3f}°, {q.max_angle:.3f}°]; {elapsed:.2f} s"
+    )
+    if args.stats:
+        print(q.summary())
+        print("timings:")
+        for stage, sec in result.timings.items():
+            print(f"  {stage:<20s} {sec:8.3f} s")
+    if args.png is not None:
+        from .render import render_png
+
+        render_png(result, args.png)
+        print(f"wrote {args.png}")
+    return EXIT_OK
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from .io import read_mesh
+
+    poly = _read_polygon(args.polygon)
+    mesh = read_mesh(args.mesh)
+    report = mesh.verify(poly, angle_tol=args.angle_tol)
+    print(report.summary())
+    return EXIT_OK if report.ok else EXIT_INVALID
+
+
+def _cmd_info(args: argparse.Namespace) -> int:
+    poly = _read_polygon(args.polygon)
+    ang = np.degrees(poly.angles)
+    lengths = poly.edge_lengths
+    print(f"file: {args.polygon}")
+    print(f"vertices: {poly.n}")
+    print(
+        f"area: {poly.area:.10g}   perimeter: {lengths.sum():.10g}   diameter: {poly.diameter:.6g}"
+    )
+    print(f"edge lengths: min {lengths.min():.4g}  max {lengths.max():.4g}")
+    print(f"interior angles: min {ang.min():.4f}°  max {ang.max():.4f}°")
+    straight = np.abs(ang - 180.0) < 1e-9
+    print(
+        f"  below 60° (kept unsplit): {np.count_nonzero(ang < 60.0)}   "
+        f"60°–120°: {np.count_nonzero((ang >= 60.0) & (ang <= 120.0))}   "
+        f"120°–180°: {np.count_nonzero((ang > 120.0) & (ang < 180.0) & ~straight)}   "
+        f"180° (collinear): {np.count_nonzero(straight)}   "
+        f"reflex: {np.count_nonzero((ang > 180.0) & ~straight)}"
+    )
+    return EXIT_OK
+
+
+def _cmd_disk_demo(args: argparse.Namespace) -> int:
+    from .disk.demo import render_disk_demo
+
+    render_disk_demo(args.output)
+    print(f"wrote {args.output}")
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``quadmesh`` command with ``argv`` (default ``sys.argv[1:]``); return the exit
+    code (see the epilog of ``quadmesh --help``)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help or a usage error
+        return int(exc.code) if isinstance(exc.code, int) else EXIT_INPUT
+    try:
+        return int(args.func(args))
+    except (InputFormatError, PolygonError) as exc:
+        print(f"quadmesh: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except MeshVerificationError as exc:
+        print(f"quadmesh: the mesh is invalid: {exc}", file=sys.stderr)
+        return EXIT_INVALID
+    except QuadmeshError as exc:
+        print(f"quadmesh: a mesher stage failed: {exc}", file=sys.stderr)
+        return EXIT_STAGE
+    except ValueError as exc:
+        print(f"quadmesh: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+    except ImportError as exc:
+        print(f"quadmesh: error: a required module is missing ({exc})", file=sys.stderr)
+        return EXIT_INPUT
+    except OSError as exc:
+        print(f"quadmesh: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,771 @@
+"""Quadrilateral meshes: corner angles, areas, quality report and verification.
+
+:class:`QuadMesh` is the output of the pipeline (ARCHITECTURE.md, "Every mesh that leaves the
+pipeline is verified", rule 5). :meth:`QuadMesh.verify` checks what the main theorem of the
+paper promises (Bishop, "Optimal angle bounds for quadrilateral meshes", Theorem 1.1):
+
+* the quads form a conforming mesh: every interior edge lies in exactly two quads, with
+  opposite orientations, and the edges that lie in one quad exactly cover the polygon's sides
+  (no hole, no overlap, no hanging vertex);
+* every polygon corner is a mesh vertex;
+* every quad is positively oriented, strictly convex and non-degenerate;
+* the quads' areas add up to the polygon's area;
+* every *new* angle lies in [60°, 120°].  An *original* angle is the angle of a polygon corner
+  that the mesh leaves unsplit (the corner lies in a single quad); Theorem 1.1 keeps original
+  angles below 60° as they are, so those are exempt.  A corner split between several quads
+  consists of new angles only.
+
+Everything is vectorised: edges are matched with :func:`numpy.unique` on integer keys, so a
+mesh of two million quads verifies in a few seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import MeshVerificationError
+from .polygon import Polygon, validate_polygon
+
+__all__ = ["QuadMesh", "QualityReport", "VerificationReport"]
+
+ANGLE_MIN = 60.0
+ANGLE_MAX = 120.0
+_MAX_EXAMPLES = 5
+_NEXT = np.array([1, 2, 3, 0])
+_PREV = np.array([3, 0, 1, 2])
+
+
+def _fmt_pt(p: complex) -> str:
+    return f"({p.real:.6g}, {p.imag:.6g})"
+
+
+@dataclass(frozen=True, eq=False)
+class QualityReport:
+    """Angle and size statistics of a :class:`QuadMesh`.
+
+    Attributes:
+        n_quads, n_vertices: sizes of the mesh.
+        n_polygon_vertices: n of the polygon, when one was given (else None).
+        quads_per_vertex: n_quads / n_polygon_vertices (the O(n) constant of Theorem 1.1).
+        min_angle, max_angle: extreme *new* corner angles in degrees.
+        min_original_angle: smallest original (unsplit polygon corner, below 60°) angle, or None.
+        n_original: number of exempt original angles.
+        histogram: counts of new angles per 5° bin of [0°, 180°] (36 bins).
+        bin_edges: the 37 bin edges in degrees.
+        n_angles_outside: number of new angles outside [60°, 120°].
+        n_quads_outside: number of quads with a new angle outside [60°, 120°].
+        worst_quads: indices of the (up to 10) quads whose new angles are farthest from 90°.
+        worst_angles: their four corner angles in degrees, shape (k, 4).
+        min_area, max_area: extreme quad areas.
+    """
+
+    n_quads: int
+    n_vertices: int
+    n_polygon_vertices: int | None
+    quads_per_vertex: float | None
+    min_angle: float
+    max_angle: float
+    min_original_angle: float | None
+    n_original: int
+    histogram: np.ndarray
+    bin_edges: np.ndarray
+    n_angles_outside: int
+    n_quads_outside: int
+    worst_quads: np.ndarray
+    worst_angles: np.ndarray
+    min_area: float
+    max_area: float
+
+    @property
+    def angles_ok(self) -> bool:
+        """True when every new angle lies in [60°, 120°]."""
+        return self.n_angles_outside == 0
+
+    def as_dict(self) -> dict:
+        """Plain-Python (JSON-ready) version of the report."""
+        return {
+            "n_quads": self.n_quads,
+            "n_vertices": self.n_vertices,
+            "n_polygon_vertices": self.n_polygon_vertices,
+            "quads_per_vertex": self.quads_per_vertex,
+            "min_angle": self.min_angle,
+            "max_angle": self.max_angle,
+            "min_original_angle": self.min_original_angle,
+            "n_original": self.n_original,
+            "histogram": self.histogram.tolist(),
+            "bin_edges": self.bin_edges.tolist(),
+            "n_angles_outside": self.n_angles_outside,
+            "n_quads_outside": self.n_quads_outside,
+            "worst_quads": self.worst_quads.tolist(),
+            "worst_angles": self.worst_angles.tolist(),
+            "min_area": self.min_area,
+            "max_area": self.max_area,
+        }
+
+    def summary(self) -> str:
+        """A few readable lines: counts, angle range, histogram of the occupied bins."""
+        lines = [f"quads: {self.n_quads}   vertices: {self.n_vertices}"]
+        if self.n_polygon_vertices is not None:
+            lines[0] += (
+                f"   polygon vertices: {self.n_polygon_vertices}"
+                f"   quads per polygon vertex: {self.quads_per_vertex:.2f}"
+            )
+        lines.append(
+            f"new angles: min {self.min_angle:.4f}°  max {self.max_angle:.4f}°  "
+            f"outside [60°, 120°]: {self.n_angles_outside} (in {self.n_quads_outside} quads)"
+        )
+        if self.n_original:
+            lines.append(
+                f"original polygon angles below 60° left unsplit: {self.n_original} "
+                f"(smallest {self.min_original_angle:.4f}°)"
+            )
+        lines.append(f"quad areas: min {self.min_area:.4g}  max {self.max_area:.4g}")
+        occupied = np.flatnonzero(self.histogram)
+        if occupied.size:
+            peak = int(self.histogram.max())
+            lines.append("angle histogram (5° bins):")
+            for b in occupied:
+                bar = "#" * max(1, round(40 * int(self.histogram[b]) / peak))
+                lines.append(
+                    f"  {self.bin_edges[b]:5.0f}–{self.bin_edges[b + 1]:3.0f}°"
+                    f" {int(self.histogram[b]):9d} {bar}"
+                )
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True, eq=False)
+class VerificationReport:
+    """Outcome of :meth:`QuadMesh.verify`.
+
+    Attributes:
+        ok: True when ``problems`` is empty.
+        problems: readable descriptions of everything that is wrong.
+        warnings: harmless oddities (unused vertices).
+        quality: the :class:`QualityReport` of the mesh against the polygon.
+        n_interior_edges, n_boundary_edges: edge counts.
+        area_error: relative difference between the quads' total area and the polygon's.
+    """
+
+    ok: bool
+    problems: tuple[str, ...]
+    warnings: tuple[str, ...]
+    quality: QualityReport
+    n_interior_edges: int
+    n_boundary_edges: int
+    area_error: float
+
+    def summary(self) -> str:
+        """Readable report: verdict, problems, warnings and the quality summary."""
+        head = "mesh OK" if self.ok else f"mesh INVALID ({len(self.problems)} problems)"
+        lines = [head]
+        lines += [f"  problem: {p}" for p in self.problems]
+        lines += [f"  warning: {w}" for w in self.warnings]
+        lines.append(
+            f"edges: {self.n_interior_edges} interior, {self.n_boundary_edges} boundary; "
+            f"relative area error {self.area_error:.2e}"
+        )
+        lines.append(self.quality.summary())
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+
+@dataclass(frozen=True, eq=False)
+class QuadMesh:
+    """A quadrilateral mesh.
+
+    Attributes:
+        vertices: (V, 2) float64 coordinates.
+        quads: (Q, 4) int64 vertex indices, each quad counter-clockwise.
+    """
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    _z: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        v = np.ascontiguousarray(self.vertices, dtype=np.float64)
+        if v.ndim != 2 or v.shape[1] != 2:
+            raise MeshVerificationError(f"mesh vertices must have shape (V, 2), got {v.shape}")
+        q = np.ascontiguousarray(self.quads)
+        if q.size == 0:
+            q = q.reshape(0, 4).astype(np.int64)
+        if q.ndim != 2 or q.shape[1] != 4:
+            raise MeshVerificationError(f"mesh quads must have shape (Q, 4), got {q.shape}")
+        if not np.issubdtype(q.dtype, np.integer):
+            qi = q.astype(np.int64)
+            if not np.array_equal(qi, q):
+                raise MeshVerificationError("mesh quads must hold integer vertex indices")
+            q = qi
+        q = q.astype(np.int64, copy=False)
+        if q.size and (q.min() < 0 or q.max() >= v.shape[0]):
+            raise MeshVerificationError(
+                f"quad vertex indices must lie in [0, {v.shape[0] - 1}], "
+                f"found {int(q.min())}..{int(q.max())}"
+            )
+        if v is self.vertices:
+            v = v.copy()
+        if q is self.quads:
+            q = q.copy()
+        v.setflags(write=False)
+        q.setflags(write=False)
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "quads", q)
+        object.__setattr__(self, "_z", v.view(np.complex128)[:, 0])
+
+    def __reduce__(self) -> tuple:
+        # rebuild through __init__ so that the arrays are read-only and z is a view again
+        return (type(self), (np.array(self.vertices), np.array(self.quads)))
+
+    # ------------------------------------------------------------------ basics
+    @classmethod
+    def from_complex(cls, z: np.ndarray, quads: np.ndarray) -> QuadMesh:
+        """Build a mesh from complex vertices."""
+        z = np.asarray(z, dtype=np.complex128).ravel()
+        return cls(np.column_stack([z.real, z.imag]), quads)
+
+    @property
+    def z(self) -> np.ndarray:
+        """Vertices as a complex128 array (a read-only view of ``vertices``)."""
+        return self._z
+
+    @property
+    def n_vertices(self) -> int:
+        """Number of vertices V."""
+        return int(self.vertices.shape[0])
+
+    @property
+    def n_quads(self) -> int:
+        """Number of quads Q."""
+        return int(self.quads.shape[0])
+
+    def _corners(self) -> np.ndarray:
+        return self._z[self.quads]
+
+    def angles(self) -> np.ndarray:
+        """Corner angles in degrees, shape (Q, 4); corner k is at vertex ``quads[:, k]``.
+
+        The angle at corner k is measured counter-clockwise from the edge to the next corner
+        to the edge to the previous one, so it lies in (0°, 360°) and is the interior angle
+        of a counter-clockwise quad (a reflex or clockwise corner gives an angle above 180°).
+        """
+        e = self._edge_vectors()
+        # at corner k: to_prev = -e[k-1], to_next = e[k]
+        ang = np.angle(-e[:, _PREV] * np.conj(e))
+        ang[ang < 0] += 2 * np.pi
+        return np.degrees(ang, out=ang)
+
+    def _edge_vectors(self) -> np.ndarray:
+        """(Q, 4) complex edge vectors: edge k goes from corner k to corner k + 1."""
+        c = self._corners()
+        return c[:, _NEXT] - c
+
+    def areas(self) -> np.ndarray:
+        """Signed areas of the quads (shoelace formula; positive when counter-clockwise)."""
+        c = self._corners()
+        cn = c[:, _NEXT]
+        return 0.5 * np.sum(c.real * cn.imag - cn.real * c.imag, axis=1)
+
+    def edges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Unique undirected edges (E, 2) (smaller index first) and the number of quads of each."""
+        a = self.quads.ravel()
+        b = self.quads[:, _NEXT].ravel()
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        keys, counts = np.unique(lo * self.n_vertices + hi, return_counts=True)
+        return np.column_stack([keys // self.n_vertices, keys % self.n_vertices]), counts
+
+    # ------------------------------------------------------------------ quality
+    def _exempt_mask(self, ang: np.ndarray, corner_vertices: np.ndarray | None) -> np.ndarray:
+        """(Q, 4) mask of original angles: unsplit corners (vertex in one quad) below 60°."""
+        valence = np.bincount(self.quads.ravel(), minlength=self.n_vertices)
+        unsplit = valence[self.quads] == 1
+        if corner_vertices is not None:
+            is_corner = np.zeros(self.n_vertices, dtype=bool)
+            is_corner[corner_vertices[corner_vertices >= 0]] = True
+            unsplit &= is_corner[self.quads]
+        return unsplit & (ang < ANGLE_MIN)
+
+    def quality(self, polygon: object | None = None, *, angle_tol: float = 1e-9) -> QualityReport:
+        """Angle statistics of the mesh (new angles only; see the module docstring).
+
+        Without ``polygon`` an unsplit polygon corner is recognised as a vertex that lies in a
+        single quad; with it, the vertex must also be one of the polygon's corners.
+        """
+        poly = validate_polygon(polygon) if polygon is not None else None
+        corners = None if poly is None else self._match_corners(poly)[0]
+        return self._quality(self.angles(), self.areas(), poly, corners, angle_tol)
+
+    def _quality(
+        self,
+        ang: np.ndarray,
+        areas: np.ndarray,
+        poly: Polygon | None,
+        corners: np.ndarray | None,
+        angle_tol: float,
+    ) -> QualityReport:
+        exempt = self._exempt_mask(ang, corners)
+        new = ang[~exempt]
+        hist, edges = np.histogram(new, bins=36, range=(0.0, 180.0))
+        bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
+        bad &= ~exempt
+        dev = np.where(exempt, 0.0, np.abs(ang - 90.0)).max(axis=1) if ang.size else ang[:, 0]
+        k = min(10, dev.size)
+        if k:
+            worst = np.argpartition(-dev, k - 1)[:k]
+            worst = worst[np.argsort(-dev[worst], kind="stable")]
+        else:
+            worst = np.zeros(0, dtype=np.int64)
+        n_poly = None if poly is None else poly.n
+        return QualityReport(
+            n_quads=self.n_quads,
+            n_vertices=self.n_vertices,
+            n_polygon_vertices=n_poly,
+            quads_per_vertex=None if n_poly is None else self.n_quads / n_poly,
+            min_angle=float(new.min()) if new.size else float("nan"),
+            max_angle=float(new.max()) if new.size else float("nan"),
+            min_original_angle=float(ang[exempt].min()) if exempt.any() else None,
+            n_original=int(exempt.sum()),
+            histogram=hist,
+            bin_edges=edges,
+            n_angles_outside=int(bad.sum()),
+            n_quads_outside=int(bad.any(axis=1).sum()),
+            worst_quads=worst.astype(np.int64),
+            worst_angles=ang[worst],
+            min_area=float(areas.min()) if areas.size else float("nan"),
+            max_area=float(areas.max()) if areas.size else float("nan"),
+        )
+
+    # ------------------------------------------------------------------ verification
+    def _edge_analysis(self) -> dict:
+        """Sorted directed and undirected edge keys (key = a * V + b), undirected counts, and
+        the free (boundary) half-edges (a, b) oriented as in their quad.
+
+        Two plain sorts instead of an argsort: a conforming mesh has every directed edge once
+        and every undirected edge at most twice (Theorem 1.1's mesh is a cell complex)."""
+        nv = self.n_vertices
+        a = self.quads.ravel()
+        b = self.quads[:, _NEXT].ravel()
+        directed = a * nv + b
+        sd = np.sort(directed)
+        su = np.sort(np.minimum(a, b) * nv + np.maximum(a, b))
+        start = np.flatnonzero(np.r_[True, su[1:] != su[:-1]])
+        counts = np.diff(np.r_[start, su.size])
+        ukeys = su[start]
+        single = ukeys[counts == 1]
+        lo, hi = single // nv, single % nv
+        pos = np.searchsorted(sd, single)
+        fwd = sd[np.minimum(pos, sd.size - 1)] == single
+        ba = np.where(fwd, lo, hi)
+        bb = np.where(fwd, hi, lo)
+        return {
+            "directed": directed,
+            "sorted_directed": sd,
+            "ukeys": ukeys,
+            "counts": counts,
+            "ba": ba,
+            "bb": bb,
+        }
+
+    def _match_corners(
+        self, poly: Polygon, ba: np.ndarray | None = None, bb: np.ndarray | None = None
+    ) -> tuple[np.ndarray, float]:
+        """Mesh vertex index of every polygon corner (-1 if none) and the distance tolerance.
+
+        Only vertices on free edges are candidates (a corner must be a boundary vertex)."""
+        from scipy.spatial import cKDTree
+
+        tol = 1e-9 * poly.diameter
+        if ba is None or bb is None:
+            ed = self._edge_analysis()
+            ba, bb = ed["ba"], ed["bb"]
+        cand = np.unique(np.r_[ba, bb])
+        out = np.full(poly.n, -1, dtype=np.int64)
+        if cand.size == 0:
+            return out, tol
+        tree = cKDTree(self.vertices[cand])
+        d, i = tree.query(poly.vertices, k=1)
+        hit = d <= tol
+        out[hit] = cand[i[hit]]
+        return out, tol
+
+    def verify(
+        self,
+        polygon: object,
+        *,
+        angle_tol: float = 1e-9,
+        area_rtol: float = 1e-9,
+        dist_rtol: float = 1e-9,
+    ) -> VerificationReport:
+        """Check that this mesh is a valid angle-bounded quad mesh of ``polygon``.
+
+        Args:
+            polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
+            angle_tol: slack in degrees on the bounds 60° and 120°.
+            area_rtol: allowed relative difference of total quad area and polygon area.
+            dist_rtol: distance (relative to the polygon's diameter) within which a boundary
+                vertex counts as lying on a polygon side, and a polygon corner as a vertex.
+
+        Returns:
+            A :class:`VerificationReport`; ``ok`` is True when nothing is wrong.
+        """
+        poly = validate_polygon(polygon)
+        problems: list[str] = []
+        warnings: list[str] = []
+        z = self._z
+        diam = poly.diameter
+        tol = dist_rtol * diam
+
+        if not np.all(np.isfinite(self.vertices)):
+            bad = np.flatnonzero(~np.isfinite(self.vertices).all(axis=1))
+            problems.append(f"non-finite coordinates at {bad.size} vertices, e.g. vertex {bad[0]}")
+            return self._report(problems, warnings, poly, None, 0, 0, float("nan"), angle_tol)
+        if self.n_quads == 0:
+            problems.append("the mesh has no quads")
+            return self._report(problems, warnings, poly, None, 0, 0, 1.0, angle_tol)
+
+        q = self.quads
+        ang = self.angles()
+        areas = self.areas()
+
+        # --- repeated indices inside a quad, unused and coincident vertices
+        rep = np.flatnonzero(
+            (q[:, 0] == q[:, 1])
+            | (q[:, 0] == q[:, 2])
+            | (q[:, 0] == q[:, 3])
+            | (q[:, 1] == q[:, 2])
+            | (q[:, 1] == q[:, 3])
+            | (q[:, 2] == q[:, 3])
+        )
+        if rep.size:
+            problems.append(
+                f"degenerate: {rep.size} quads repeat a vertex, "
+                f"e.g. quad {rep[0]} = {q[rep[0]].tolist()}"
+            )
+        used = np.zeros(self.n_vertices, dtype=bool)
+        used[q.ravel()] = True
+        if not used.all():
+            unused = np.flatnonzero(~used)
+            warnings.append(f"{unused.size} vertices belong to no quad, e.g. vertex {unused[0]}")
+        # --- orientation, convexity, degeneracy
+        min_edge = np.abs(self._edge_vectors()).min(axis=1)
+        degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
+        flipped = (areas < 0) & ~degenerate
+        if flipped.any():
+            i = np.flatnonzero(flipped)
+            problems.append(
+                f"flipped: {i.size} quads are clockwise, e.g. quad {i[0]} {q[i[0]].tolist()} "
+                f"(signed area {areas[i[0]]:.4g})"
+            )
+        if degenerate.any():
+            i = np.flatnonzero(degenerate)
+            problems.append(
+                f"degenerate: {i.size} quads have (nearly) zero area or a zero-length edge, "
+                f"e.g. quad {i[0]} (area {areas[i[0]]:.3g})"
+            )
+        eps_deg = 1e-9
+        nonconvex = ((ang >= 180.0 - eps_deg) | (ang <= eps_deg)).any(axis=1)
+        nonconvex &= ~flipped & ~degenerate
+        if nonconvex.any():
+            i = np.flatnonzero(nonconvex)
+            k = int(np.argmax(ang[i[0]]))
+            problems.append(
+                f"not strictly convex: {i.size} quads, e.g. quad {i[0]} has an angle of "
+                f"{ang[i[0], k]:.4g}° at vertex {q[i[0], k]} {_fmt_pt(z[q[i[0], k]])}"
+            )
+
+        # --- conformity: every directed edge once, every undirected edge in at most two quads
+        ed = self._edge_analysis()
+        nv = self.n_vertices
+        ba, bb, counts, ukeys = ed["ba"], ed["bb"], ed["counts"], ed["ukeys"]
+        many = np.flatnonzero(counts > 2)
+        if many.size:
+            k = ukeys[many[0]]
+            problems.append(
+                f"overlap: {many.size} edges lie in more than two quads, e.g. edge "
+                f"({k // nv}, {k % nv}) in {counts[many[0]]} quads"
+            )
+        sd = ed["sorted_directed"]
+        rep_d = np.unique(sd[1:][sd[1:] == sd[:-1]])
+        if rep_d.size:
+            k = rep_d[0]
+            qi = np.flatnonzero(ed["directed"] == k) // 4
+            problems.append(
+                f"overlap: {rep_d.size} edges are used twice in the same direction (overlapping "
+                f"or flipped quads), e.g. edge ({k // nv}, {k % nv}) in quads "
+                + ", ".join(str(x) for x in qi[:4])
+            )
+        if many.size or rep_d.size:
+            # duplicated quads, looked for among the quads of the suspicious edges only
+            bad_keys = np.r_[ukeys[many], rep_d]
+            a_, b_ = bad_keys // nv, bad_keys % nv
+            und = np.r_[bad_keys, b_ * nv + a_]
+            sus = np.unique(np.flatnonzero(np.isin(ed["directed"], und)) // 4)
+            qs = np.sort(q[sus], axis=1)
+            _, first_idx, inv_q, cnt_q = np.unique(
+                qs, axis=0, return_index=True, return_inverse=True, return_counts=True
+            )
+            inv_q = inv_q.ravel()
+            dq = np.flatnonzero((cnt_q[inv_q] > 1) & (np.arange(sus.size) != first_idx[inv_q]))
+            if dq.size:
+                j0 = int(sus[dq[0]])
+                i0 = int(sus[first_idx[inv_q[dq[0]]]])
+                problems.append(
+                    f"overlap: {dq.size} duplicated quads, "
+                    f"e.g. quad {j0} repeats quad {i0} ({q[i0].tolist()})"
+                )
+        n_interior = int(np.count_nonzero(counts >= 2))
+        n_boundary = int(ba.size)
+
+        # --- cracks: distinct boundary vertices at the same position
+        fv = np.unique(np.r_[ba, bb])
+        _, inv, cnt = np.unique(z[fv], return_inverse=True, return_counts=True)
+        dup = cnt[inv.ravel()] > 1
+        if dup.any():
+            i0 = fv[np.flatnonzero(dup)[0]]
+            problems.append(
+                f"crack: {int(dup.sum())} vertices of free edges share their position with "
+                f"another, e.g. vertex {i0} at {_fmt_pt(z[i0])}"
+            )
+
+        # --- polygon corners and boundary edges
+        corner_v, _ = self._match_corners(poly, ba, bb)
+        missing = np.flatnonzero(corner_v < 0)
+        if missing.size:
+            problems.append(
+                f"corner: {missing.size} polygon corners are not mesh boundary vertices, e.g. "
+                f"corner {missing[0]} at {_fmt_pt(poly.z[missing[0]])}"
+            )
+        problems += self._check_boundary(poly, corner_v, ba, bb, tol)
+
+        # --- area
+        total = float(areas.sum())
+        area_err = abs(total - poly.area) / poly.area
+        if not area_err <= area_rtol:
+            problems.append(
+                f"area: the quads cover {total:.12g}, the polygon has area {poly.area:.12g} "
+                f"(relative error {area_err:.3g}; a hole or an overlap)"
+            )
+
+        # --- angles
+        exempt = self._exempt_mask(ang, corner_v)
+        bad = ((ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)) & ~exempt
+        if bad.any():
+            bq, bk = np.nonzero(bad)
+            w = np.argmax(np.abs(ang[bq, bk] - 90.0))
+            problems.append(
+                f"angle: {bq.size} new angles outside [60°, 120°] in {np.unique(bq).size} quads; "
+                f"worst {ang[bq[w], bk[w]]:.12g}° in quad {bq[w]} at vertex {q[bq[w], bk[w]]} "
+                f"{_fmt_pt(z[q[bq[w], bk[w]]])}"
+            )
+        return self._report(
+            problems,
+            warnings,
+            poly,
+            corner_v,
+            n_interior,
+            n_boundary,
+            area_err,
+            angle_tol,
+            ang,
+            areas,
+        )
+
+    def _report(
+        self,
+        problems: list[str],
+        warnings: list[str],
+        poly: Polygon,
+        corner_v: np.ndarray | None,
+        n_interior: int,
+        n_boundary: int,
+        area_err: float,
+        angle_tol: float,
+        ang: np.ndarray | None = None,
+        areas: np.ndarray | None = None,
+    ) -> VerificationReport:
+        if ang is None:
+            with np.errstate(invalid="ignore"):
+                ang = self.angles()
+                areas = self.areas()
+        return VerificationReport(
+            ok=not problems,
+            problems=tuple(problems),
+            warnings=tuple(warnings),
+            quality=self._quality(ang, areas, poly, corner_v, angle_tol),
+            n_interior_edges=n_interior,
+            n_boundary_edges=n_boundary,
+            area_error=area_err,
+        )
+
+    def _check_boundary(
+        self, poly: Polygon, corner_v: np.ndarray, ba: np.ndarray, bb: np.ndarray, tol: float
+    ) -> list[str]:
+        """Problems with the free edges (a, b): each must lie on a polygon side, in the side's
+        direction, and the free edges of each side must chain from one corner to the next."""
+        import shapely
+
+        problems: list[str] = []
+        z = self._z
+        pz = poly.z
+        n = poly.n
+        if ba.size == 0:
+            return ["boundary: the mesh has no boundary edges"]
+        pv = poly.vertices
+        sides = shapely.linestrings(np.stack([pv, np.roll(pv, -1, axis=0)], axis=1))
+        tree = shapely.STRtree(sides)
+        mid = 0.5 * (z[ba] + z[bb])
+        side = tree.query_nearest(shapely.points(mid.real, mid.imag), all_matches=False)[1]
+        p0 = pz[side]
+        d = np.roll(pz, -1)[side] - p0
+        dd = (d * np.conj(d)).real
+
+        def param(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t = ((p - p0) * np.conj(d)).real / dd
+            dist = np.abs(p - p0 - np.clip(t, 0.0, 1.0) * d)
+            return t, dist
+
+        ta, da = param(z[ba])
+        tb, db = param(z[bb])
+        on = (da <= tol) & (db <= tol)
+
+        # free edges inside the domain: holes, cracks, hanging vertices
+        off = np.flatnonzero(~on)
+        if off.size:
+            problems += self._describe_inner_free_edges(poly, ba[off], bb[off], tol)
+
+        fwd = on & (tb > ta)
+        back = np.flatnonzero(on & ~fwd)
+        if back.size:
+            e = back[0]
+            problems.append(
+                f"boundary: {back.size} boundary edges run clockwise along the polygon, e.g. "
+                f"edge ({ba[e]}, {bb[e]}) on side {side[e]} (a flipped quad at the boundary)"
+            )
+        sel = np.flatnonzero(fwd)
+        covered = np.zeros(n, dtype=bool)
+        if sel.size:
+            o = sel[np.lexsort((ta[sel], side[sel]))]
+            s, a, b, t0, t1 = side[o], ba[o], bb[o], ta[o], tb[o]
+            covered[s] = True
+            first = np.r_[True, s[1:] != s[:-1]]
+            last = np.r_[s[1:] != s[:-1], True]
+            ttol = tol / np.sqrt(dd[o])
+            gaps, overlaps, cracks = [], [], []
+            # starts and ends of each side
+            bad_start = first & (a != corner_v[s])
+            for i in np.flatnonzero(bad_start)[:_MAX_EXAMPLES]:
+                (gaps if t0[i] > ttol[i] else cracks).append(
+                    f"side {s[i]} starts at t={t0[i]:.6g} instead of at its corner "
+                    f"{_fmt_pt(pz[s[i]])}"
+                )
+            nb = np.count_nonzero(bad_start)
+            end_v = corner_v[(s + 1) % n]
+            bad_end = last & (b != end_v)
+            for i in np.flatnonzero(bad_end)[:_MAX_EXAMPLES]:
+                (gaps if t1[i] < 1 - ttol[i] else cracks).append(
+                    f"side {s[i]} ends at t={t1[i]:.6g} instead of at its corner "
+                    f"{_fmt_pt(pz[(s[i] + 1) % n])}"
+                )
+            nb += np.count_nonzero(bad_end)
+            # consecutive edges on one side
+            inner = np.flatnonzero(~last)
+            brk = inner[b[inner] != a[inner + 1]]
+            for i in brk[: _MAX_EXAMPLES * 3]:
+                if t1[i] < t0[i + 1] - ttol[i]:
+                    gaps.append(f"side {s[i]} has a gap from t={t1[i]:.6g} to t={t0[i + 1]:.6g}")
+                elif t1[i] > t0[i + 1] + ttol[i]:
+                    overlaps.append(
+                        f"side {s[i]} is covered twice between t={t0[i + 1]:.6g} and t={t1[i]:.6g}"
+                    )
+                else:
+                    cracks.append(
+                        f"side {s[i]}: vertices {b[i]} and {a[i + 1]} are distinct at the same "
+                        f"point {_fmt_pt(z[b[i]])}"
+                    )
+            nb += brk.size
+            for kind, lst in (("gap", gaps), ("overlap", overlaps), ("crack", cracks)):
+                if lst:
+                    problems.append(
+                        f"boundary {kind}: {len(lst)} along the polygon sides, e.g. "
+                        + "; ".join(lst[:_MAX_EXAMPLES])
+                    )
+        uncovered = np.flatnonzero(~covered)
+        if uncovered.size:
+            k = uncovered[0]
+            problems.append(
+                f"boundary gap: {uncovered.size} polygon sides carry no mesh edge, e.g. side {k} "
+                f"from {_fmt_pt(pz[k])} to {_fmt_pt(pz[(k + 1) % n])}"
+            )
+        return problems
+
+    def _describe_inner_free_edges(
+        self, poly: Polygon, a: np.ndarray, b: np.ndarray, tol: float
+    ) -> list[str]:
+        """Explain free edges that are not on a polygon side: hanging vertices (a vertex inside
+        the edge of a neighbour), boundary edges off the polygon (an end on the boundary) and
+        holes (both ends inside the domain)."""
+        import shapely
+
+        z = self._z
+        problems: list[str] = []
+        m = min(a.size, 20000)  # the explanation looks at the first 20 000 such edges
+        more = f" (of the first {m}; {a.size} in all)" if a.size > m else ""
+        a, b = a[:m], b[:m]
+        segs = shapely.linestrings(
+            np.stack(
+                [np.column_stack([z[a].real, z[a].imag]), np.column_stack([z[b].real, z[b].imag])],
+                axis=1,
+            )
+        )
+        tree = shapely.STRtree(segs)
+        verts = np.unique(np.r_[a, b])
+        pts = shapely.points(z[verts].real, z[verts].imag)
+        vi, ei = tree.query(pts, predicate="dwithin", distance=tol)
+        v = verts[vi]
+        hanging = (v != a[ei]) & (v != b[ei])
+        explained = np.zeros(m, dtype=bool)
+        if hanging.any():
+            hv, he = v[hanging], ei[hanging]
+            explained[he] = True
+            is_h = np.zeros(self.n_vertices, dtype=bool)
+            is_h[hv] = True
+            explained |= is_h[a] | is_h[b]
+            problems.append(
+                f"hanging vertex (T-junction): {np.unique(hv).size} vertices lie inside an edge of "
+                f"a neighbouring quad, e.g. vertex {hv[0]} at {_fmt_pt(z[hv[0]])} on edge "
+                f"({a[he[0]]}, {b[he[0]]})"
+            )
+        ring = shapely.linearrings(poly.vertices)
+        dist = np.zeros(self.n_vertices)
+        dist[verts] = shapely.distance(pts, ring)
+        touches = (dist[a] <= tol) | (dist[b] <= tol)
+        rest = np.flatnonzero(~explained & touches)
+        if rest.size:
+            i = rest[0]
+            far = a[i] if dist[a[i]] > dist[b[i]] else b[i]
+            problems.append(
+                f"boundary edge off the polygon: {rest.size}{more} free edges (in one quad) leave "
+                f"the polygon boundary, e.g. edge ({a[i]}, {b[i]}) whose vertex {far} at "
+                f"{_fmt_pt(z[far])} is {dist[far]:.3g} away from it"
+            )
+        rest = np.flatnonzero(~explained & ~touches)
+        if rest.size:
+            i = rest[0]
+            problems.append(
+                f"hole: {rest.size}{more} free edges (in one quad) lie inside the domain, e.g. "
+                f"edge ({a[i]}, {b[i]}) from {_fmt_pt(z[a[i]])} to {_fmt_pt(z[b[i]])}"
+            )
+        return problems
+
+    def check(self, polygon: object, **kwargs: float) -> VerificationReport:
+        """Verify against ``polygon`` and raise :class:`MeshVerificationError` listing every
+        problem when the mesh is not valid; return the report when it is."""
+        report = self.verify(polygon, **kwargs)
+        if not report.ok:
+            raise MeshVerificationError(
+                "mesh verification failed:\n" + "\n".join(f"- {p}" for p in report.problems)
+            )
+        return report

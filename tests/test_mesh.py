@@ -1,0 +1,288 @@
+"""QuadMesh: angles, areas, quality report and verification on hand-built meshes."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from quadmesh.errors import MeshVerificationError
+from quadmesh.mesh import QuadMesh
+
+SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+
+
+def grid_mesh(nx: int, ny: int, w: float = 1.0, h: float = 1.0) -> QuadMesh:
+    """[0, w] x [0, h] split into nx * ny rectangles."""
+    x, y = np.meshgrid(np.linspace(0, w, nx + 1), np.linspace(0, h, ny + 1))
+    verts = np.column_stack([x.ravel(), y.ravel()])
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny))
+    v0 = (j * (nx + 1) + i).ravel()
+    quads = np.column_stack([v0, v0 + 1, v0 + nx + 2, v0 + nx + 1])
+    return QuadMesh(verts, quads)
+
+
+def square4() -> QuadMesh:
+    return grid_mesh(2, 2)
+
+
+def lshape() -> tuple[QuadMesh, np.ndarray]:
+    poly = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+    verts = np.array([[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1], [0, 2], [1, 2]], dtype=float)
+    quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6]])
+    return QuadMesh(verts, quads), poly
+
+
+def hexagon() -> tuple[QuadMesh, np.ndarray]:
+    t = np.arange(6) * np.pi / 3
+    poly = np.column_stack([np.cos(t), np.sin(t)])
+    verts = np.vstack([[0.0, 0.0], poly])
+    quads = np.array([[0, 1, 2, 3], [0, 3, 4, 5], [0, 5, 6, 1]])
+    return QuadMesh(verts, quads), poly
+
+
+def kite50() -> np.ndarray:
+    """Kite with angles 50°, 120°, 70°, 120° (the 50° corner at the origin)."""
+    # triangle A=(0,0), C=(1,0), B with angles 25° at A, 35° at C, 120° at B
+    r = np.sin(np.radians(35)) / np.sin(np.radians(120))
+    b = r * np.exp(1j * np.radians(25))
+    z = np.array([0, np.conj(b), 1, b])
+    return np.column_stack([z.real, z.imag])
+
+
+def problems_with(report, word: str) -> list[str]:
+    return [p for p in report.problems if word in p]
+
+
+# ----------------------------------------------------------------------------- basics
+def test_angles_areas_square():
+    m = square4()
+    assert m.angles().shape == (4, 4)
+    np.testing.assert_allclose(m.angles(), 90.0)
+    np.testing.assert_allclose(m.areas(), 0.25)
+    assert m.z.dtype == np.complex128
+    assert m.z[4] == 0.5 + 0.5j
+    assert not m.vertices.flags.writeable
+
+
+def test_pickle_keeps_view_and_read_only():
+    import pickle
+
+    m = pickle.loads(pickle.dumps(square4()))
+    assert not m.vertices.flags.writeable and not m.quads.flags.writeable
+    assert np.shares_memory(m.z, m.vertices)
+    assert m.verify(SQUARE).ok
+
+
+def test_edges_counts():
+    edges, counts = square4().edges()
+    assert edges.shape == (12, 2)
+    assert np.count_nonzero(counts == 2) == 4
+    assert np.count_nonzero(counts == 1) == 8
+
+
+def test_bad_shapes_rejected():
+    with pytest.raises(MeshVerificationError, match="shape"):
+        QuadMesh(np.zeros((3, 3)), np.zeros((1, 4), int))
+    with pytest.raises(MeshVerificationError, match="indices"):
+        QuadMesh(np.zeros((3, 2)), np.array([[0, 1, 2, 3]]))
+
+
+# ----------------------------------------------------------------------------- valid meshes
+@pytest.mark.parametrize("name", ["square", "lshape", "hexagon"])
+def test_valid_meshes(name):
+    if name == "square":
+        mesh, poly = square4(), SQUARE
+    elif name == "lshape":
+        mesh, poly = lshape()
+    else:
+        mesh, poly = hexagon()
+    report = mesh.verify(poly)
+    assert report.ok, report.problems
+    assert report.area_error < 1e-12
+    mesh.check(poly)
+    q = report.quality
+    assert q.n_angles_outside == 0
+    assert 60 - 1e-9 <= q.min_angle <= q.max_angle <= 120 + 1e-9
+    assert q.histogram.sum() == 4 * mesh.n_quads
+    assert q.n_polygon_vertices == len(poly)
+
+
+def test_hexagon_angles_and_edges():
+    mesh, poly = hexagon()
+    report = mesh.verify(poly)
+    assert report.n_interior_edges == 3
+    assert report.n_boundary_edges == 6
+    ang = np.sort(mesh.angles().ravel())
+    np.testing.assert_allclose(ang[:6], 60.0, atol=1e-12)
+    np.testing.assert_allclose(ang[6:], 120.0, atol=1e-12)
+    q = report.quality
+    assert q.quads_per_vertex == pytest.approx(0.5)
+    assert q.histogram[12] + q.histogram[11] == 6  # the 60° bin (edge 60 falls in bin 12)
+
+
+def test_lshape_reflex_corner_split():
+    mesh, poly = lshape()
+    # the 270° corner at (1, 1) is split into three 90° angles
+    ang = mesh.angles()
+    at = mesh.quads == 4
+    np.testing.assert_allclose(ang[at], 90.0)
+    assert mesh.verify(poly).ok
+
+
+def test_original_small_angle_exempt():
+    poly = kite50()
+    mesh = QuadMesh(poly, np.array([[0, 1, 2, 3]]))
+    report = mesh.verify(poly)
+    assert report.ok, report.problems
+    q = report.quality
+    assert q.n_original == 1
+    assert q.min_original_angle == pytest.approx(50.0)
+    assert q.min_angle == pytest.approx(70.0)
+    # without the polygon the unsplit corner is recognised from the mesh alone
+    assert mesh.quality().n_original == 1
+
+
+def test_equilateral_triangle_three_quads():
+    t = np.pi / 2 + np.arange(3) * 2 * np.pi / 3
+    corners = np.exp(1j * t)
+    mids = 0.5 * (corners + np.roll(corners, -1))
+    z = np.r_[0, corners, mids]  # 0 centre, 1..3 corners, 4..6 midpoints
+    quads = np.array([[0, 6, 1, 4], [0, 4, 2, 5], [0, 5, 3, 6]])
+    mesh = QuadMesh.from_complex(z, quads)
+    poly = np.column_stack([corners.real, corners.imag])
+    report = mesh.verify(poly)
+    assert report.ok, report.problems
+    np.testing.assert_allclose(np.sort(np.unique(mesh.angles().round(9))), [60, 90, 120])
+
+
+# ----------------------------------------------------------------------------- defects
+def test_hole_detected():
+    mesh = grid_mesh(3, 3)
+    holed = QuadMesh(mesh.vertices, np.delete(mesh.quads, 4, axis=0))
+    report = holed.verify(SQUARE)
+    assert not report.ok
+    assert problems_with(report, "hole: 4 free edges")
+    assert problems_with(report, "area")
+    with pytest.raises(MeshVerificationError, match="hole"):
+        holed.check(SQUARE)
+
+
+def test_overlap_detected():
+    mesh = square4()
+    dup = QuadMesh(mesh.vertices, np.vstack([mesh.quads, mesh.quads[2]]))
+    report = dup.verify(SQUARE)
+    assert problems_with(report, "overlap: 1 duplicated quads, e.g. quad 4 repeats quad 2")
+    assert problems_with(report, "area")
+
+
+def test_flipped_quad_detected():
+    mesh = square4()
+    quads = mesh.quads.copy()
+    quads[1] = quads[1, ::-1]
+    report = QuadMesh(mesh.vertices, quads).verify(SQUARE)
+    assert problems_with(report, "flipped: 1 quads are clockwise, e.g. quad 1")
+
+
+def test_non_convex_quad_detected():
+    # an arrowhead (dart) meshed by its single quad: reflex corner at (1, 1)
+    poly = np.array([[0, 0], [2, 1], [0, 2], [1, 1]], dtype=float)
+    mesh = QuadMesh(poly, np.array([[0, 1, 2, 3]]))
+    report = mesh.verify(poly)
+    msgs = problems_with(report, "not strictly convex")
+    assert msgs and "angle of 270° at vertex 3" in msgs[0], report.problems
+    assert not problems_with(report, "flipped")
+
+
+def test_angle_50_detected():
+    mesh = square4()
+    verts = mesh.vertices.copy()
+    verts[4] = [0.5 + 0.5 / np.tan(np.radians(50)), 0.5]
+    moved = QuadMesh(verts, mesh.quads)
+    report = moved.verify(SQUARE)
+    assert len(report.problems) == 1, report.problems
+    assert report.problems[0].startswith("angle: 8 new angles outside [60°, 120°] in 4 quads")
+    q = report.quality
+    assert q.min_angle == pytest.approx(50.0)
+    assert q.max_angle == pytest.approx(130.0)
+    assert q.n_quads_outside == 4
+    assert q.n_angles_outside == 8
+
+
+def test_split_small_corner_not_exempt():
+    # a 50° polygon corner at the origin split by the edge (0, a) into two 25° parts
+    z = np.array(
+        [
+            0,  # 0 = O, the 50° corner
+            1.2 * np.exp(-1j * np.radians(25)),  # 1
+            1.5 - 0.5j,  # 2
+            2.0,  # 3
+            1.5 + 0.5j,  # 4
+            1.2 * np.exp(1j * np.radians(25)),  # 5
+            1.0,  # 6 = a, interior
+        ]
+    )
+    quads = np.array([[0, 1, 2, 6], [0, 6, 4, 5], [6, 2, 3, 4]])
+    mesh = QuadMesh.from_complex(z, quads)
+    poly = np.column_stack([z[:6].real, z[:6].imag])
+    report = mesh.verify(poly)
+    assert [p.split(":")[0] for p in report.problems] == ["angle"], report.problems
+    assert report.quality.n_original == 0
+    assert report.quality.min_angle == pytest.approx(25.0)
+
+
+def test_boundary_edge_off_polygon():
+    mesh = square4()
+    verts = mesh.vertices.copy()
+    verts[1] = [0.5, -0.05]  # the midpoint of the bottom side leaves the side
+    report = QuadMesh(verts, mesh.quads).verify(SQUARE)
+    assert problems_with(report, "boundary edge off the polygon: 2 free edges")
+    assert problems_with(report, "boundary gap")
+
+
+def test_hanging_vertex_detected():
+    verts = np.array(
+        [[0, 0], [0.5, 0], [1, 0], [0, 1], [0.5, 1], [1, 1], [0.5, 0.5], [1, 0.5]], dtype=float
+    )
+    quads = np.array([[0, 1, 4, 3], [1, 2, 7, 6], [6, 7, 5, 4]])
+    report = QuadMesh(verts, quads).verify(SQUARE)
+    msgs = problems_with(report, "hanging vertex")
+    assert msgs and "vertex 6" in msgs[0]
+    assert not problems_with(report, "hole")
+    assert report.area_error < 1e-12  # area alone does not see it
+
+
+def test_polygon_corner_missing():
+    poly = np.array([[0, 0], [0.25, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    report = square4().verify(poly)
+    msgs = problems_with(report, "corner: 1 polygon corners")
+    assert msgs and "(0.25, 0)" in msgs[0]
+
+
+def test_unsplit_obtuse_corner_flagged():
+    # a single quad with a 135° corner: original angles above 120° must be split
+    poly = np.array([[0, 0], [2, 0], [2, 1], [1, 2], [0, 2]], dtype=float)[[0, 1, 2, 3, 4]]
+    poly = np.array([[0, 0], [2, 0], [1, 1], [0, 1]], dtype=float)
+    report = QuadMesh(poly, np.array([[0, 1, 2, 3]])).verify(poly)
+    assert problems_with(report, "angle")
+    assert report.quality.max_angle == pytest.approx(135.0)
+
+
+def test_summary_readable():
+    mesh, poly = hexagon()
+    text = mesh.verify(poly).summary()
+    assert text.startswith("mesh OK")
+    assert "quads per polygon vertex: 0.50" in text
+    assert "min 60.0000°" in text
+
+
+def test_verify_large_mesh_fast():
+    mesh = grid_mesh(500, 400, 2.5, 2.0)  # 200 000 quads
+    poly = np.array([[0, 0], [2.5, 0], [2.5, 2], [0, 2]], dtype=float)
+    t0 = time.perf_counter()
+    report = mesh.verify(poly)
+    dt = time.perf_counter() - t0
+    assert report.ok, report.problems
+    assert report.n_boundary_edges == 2 * (500 + 400)
+    assert dt < 5.0
