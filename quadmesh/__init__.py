@@ -14,7 +14,10 @@ from .errors import (
     QuadmeshError,
     ThinPartError,
 )
+from .mesh import QuadMesh, QualityReport, VerificationReport
+from .pipeline import mesh_polygon
 from .polygon import Polygon, validate_polygon
+from .result import MeshOptions, MeshResult
 
 __version__ = "0.1.0"
 
@@ -24,10 +27,16 @@ __all__ = [
     "DecompositionError",
     "DiskConstructionError",
     "InputFormatError",
+    "MeshOptions",
+    "MeshResult",
     "MeshVerificationError",
     "Polygon",
     "PolygonError",
+    "QuadMesh",
     "QuadmeshError",
+    "QualityReport",
     "ThinPartError",
+    "VerificationReport",
+    "mesh_polygon",
     "validate_polygon",
 ]

@@ -30,6 +30,11 @@ from .polygon import Polygon, validate_polygon
 
 __all__ = ["QuadMesh", "QualityReport", "VerificationReport"]
 
+#: Slack (degrees) on the bounds 60° and 120° for rounding: corners that are exactly 60° or
+#: 120° by construction (Mesh 1 and Mesh 2 of the vertex sectors, the spokes of the inner
+#: triangles) come out within ~1e-8° of the bound after floating-point placement.
+ANGLE_TOL_DEG = 1e-6
+
 ANGLE_MIN = 60.0
 ANGLE_MAX = 120.0
 _MAX_EXAMPLES = 5
@@ -288,7 +293,9 @@ class QuadMesh:
             unsplit &= is_corner[self.quads]
         return unsplit & (ang < ANGLE_MIN)
 
-    def quality(self, polygon: object | None = None, *, angle_tol: float = 1e-9) -> QualityReport:
+    def quality(
+        self, polygon: object | None = None, *, angle_tol: float = ANGLE_TOL_DEG
+    ) -> QualityReport:
         """Angle statistics of the mesh (new angles only; see the module docstring).
 
         Without ``polygon`` an unsplit polygon corner is recognised as a vertex that lies in a
@@ -395,7 +402,7 @@ class QuadMesh:
         self,
         polygon: object,
         *,
-        angle_tol: float = 1e-9,
+        angle_tol: float = ANGLE_TOL_DEG,
         area_rtol: float = 1e-9,
         dist_rtol: float = 1e-9,
     ) -> VerificationReport:

@@ -1,0 +1,587 @@
+"""The mesher: :func:`mesh_polygon` runs every stage of Bishop's construction.
+
+Stages (ARCHITECTURE.md, "The pipeline"):
+
+1. validate the polygon (:func:`quadmesh.polygon.validate_polygon`);
+2. thick/thin decomposition (:func:`quadmesh.decompose.decompose`, paper §7);
+3. for each thick piece: the Schwarz–Christoffel map f: D → piece
+   (:class:`quadmesh.conformal.DiskMap`), the arcs I_j around its prevertices, the
+   region W of Lemma 2.2 and its mesh (Lemmas 4.1, 5.1, 6.1, :func:`quadmesh.disk.disk_mesh`),
+   pushed forward through f, with the linear map h(ζ) = g(c) + (ζ − c) g'(c),
+   g = f∘τ⁻¹, inside every inner triangle T_i (paper §7);
+4. the thin parts meshed explicitly and glued onto the pushed-forward crosscut vertices: a
+   vertex sector at every polygon vertex (paper §8, parabolic case) and a log-spiral
+   connector across every narrow channel (paper §8, hyperbolic case);
+5. one :class:`~quadmesh.mesh.QuadMesh`, verified (:meth:`QuadMesh.check`). A mesh that
+   fails verification is never returned: a :class:`~quadmesh.errors.QuadmeshError`
+   subclass naming the stage is raised instead.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import (
+    Cancelled,
+    ConformalMapError,
+    DiskConstructionError,
+    MeshVerificationError,
+    ThinPartError,
+)
+from .polygon import Polygon, validate_polygon
+from .result import MeshOptions, MeshResult, ThickPieceResult, ThinPartResult
+
+__all__ = ["MeshOptions", "MeshResult", "mesh_polygon"]
+
+ProgressCallback = Callable[[str, float], None]
+CancelCallback = Callable[[], bool]
+
+#: n values tried by the adaptive loop, in order (MeshOptions.adaptive).
+ADAPTIVE_N = (2, 3, 4, 6, 8)
+ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
+#: Slack on the angle bounds for rounding: angles that are exactly 60° or 120° by
+#: construction (Mesh 1, Mesh 2, the spokes of T_i) come out within ~1e-10 of them.
+ANGLE_TOL = 1e-6
+
+
+@dataclass
+class _Assembler:
+    """Collects vertices and quads of all stages into one global numbering.
+
+    Shared vertices are glued by index (ARCHITECTURE.md rule 6): a thin part receives
+    the global ids of the crosscut vertices it was built on, never a merge by distance.
+    """
+
+    chunks: list[np.ndarray] = field(default_factory=list)
+    quads: list[np.ndarray] = field(default_factory=list)
+    source: list[np.ndarray] = field(default_factory=list)
+    count: int = 0
+
+    def add_vertices(self, z: np.ndarray) -> np.ndarray:
+        ids = np.arange(self.count, self.count + z.size)
+        self.chunks.append(np.asarray(z, dtype=np.complex128))
+        self.count += z.size
+        return ids
+
+    def add_quads(self, quads: np.ndarray, source: int) -> None:
+        self.quads.append(np.asarray(quads, dtype=np.int64))
+        self.source.append(np.full(len(quads), source, dtype=np.int8))
+
+    def vertices(self) -> np.ndarray:
+        return np.concatenate(self.chunks) if self.chunks else np.zeros(0, complex)
+
+    def all_quads(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.quads:
+            return np.zeros((0, 4), np.int64), np.zeros(0, np.int8)
+        return np.concatenate(self.quads), np.concatenate(self.source)
+
+
+def quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Interior corner angles (degrees) of the quads with complex vertices ``z``."""
+    q = z[quads]
+    prev = np.roll(q, 1, axis=1) - q
+    nxt = np.roll(q, -1, axis=1) - q
+    return np.degrees(np.abs(np.angle(prev / nxt)))
+
+
+def _arc_gaps(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gaps to the previous and the next prevertex (radians), for sorted angles θ_k."""
+    two_pi = 2 * np.pi
+    nxt = np.mod(np.roll(theta, -1) - theta, two_pi)
+    prv = np.mod(theta - np.roll(theta, 1), two_pi)
+    return prv, nxt
+
+
+def _choose_arcs(
+    centre: np.ndarray, half: np.ndarray, gap: np.ndarray, options: MeshOptions
+) -> np.ndarray:
+    """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc).
+
+    The boundary of W over J_j is the geodesic γ_j whose image is the crosscut of the thin
+    part around the core (paper §7). Its image is round about the vertex only when J_j is
+    nearly symmetric about the core: for J_j from −a to b about a prevertex, the power map
+    sends γ_j to a curve whose distance from the vertex varies by (b/a)^α. Lemma 2.1's
+    minimal containing arc of a concentric √A·I_j can be very lopsided (|J|/|√A I| was
+    measured up to 13), so J_j is chosen first: among the tessellation (I5) arcs that
+    contain the core with half-width φ near max(g/A_eff, 1.2·√A·half) (g the gap to the
+    neighbouring prevertices; CONFORMAL.md §3.2: the crosscut is round to ≈ 1.1·φ/g), the
+    one whose centre is closest to the core's centre relative to φ. I_j is then the arc
+    concentric with J_j of half-width φ/(1.02·√A): √A·I_j ⊂ J_j, so Lemma 2.2 selects J_j (or
+    a slightly shorter arc with the same centre up to 2 %), and the A-fold expansion
+    (half-width ≈ √A·φ ≤ g/2) stays clear of the neighbours. Where the residual offset is
+    large the conformal collar (:mod:`quadmesh.thin.collar`) straightens the crosscut.
+    """
+    from .disk.tessellation import minimal_containing_arc
+
+    two_pi = 2 * np.pi
+    sq = np.sqrt(options.lemma_A)
+    target = np.maximum(gap / options.crosscut_ratio, 1.2 * sq * half)
+    sizes = np.geomspace(0.25, 4.0, 9)
+    offsets = np.array([-0.4, 0.0, 0.4])
+    ss, oo = np.meshgrid(sizes, offsets, indexing="ij")
+    ss, oo = ss.ravel(), oo.ravel()
+    hw = np.maximum(target[:, None] * ss[None, :], 1.05 * half[:, None])
+    mid = centre[:, None] + oo[None, :] * (hw - half[:, None])
+    js, jl, _, _ = minimal_containing_arc(np.mod(mid - hw, two_pi).ravel(), (2 * hw).ravel())
+    js = js.reshape(hw.shape)
+    jl = jl.reshape(hw.shape)
+    phi = jl / 2
+    jc = js + phi
+    dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
+    off = dist / phi
+    ratio = phi / gap[:, None]
+    bad = (ratio > 0.125) | (dist + half[:, None] > 0.9 * phi)
+    score = off + 0.01 * np.abs(np.log(ratio * options.crosscut_ratio)) + 10.0 * bad
+    best = np.argmin(score, axis=1)
+    rows = np.arange(centre.size)
+    if np.any(bad[rows, best]):
+        j = int(np.flatnonzero(bad[rows, best])[0])
+        raise DiskConstructionError(
+            f"no tessellation arc fits around prevertex cluster {j} (core half-width "
+            f"{half[j]:.3g} rad, gap to its neighbours {gap[j]:.3g} rad): the thick piece is "
+            "too crowded there"
+        )
+    phi_b = phi[rows, best]
+    half_i = phi_b / (1.02 * sq)
+    return np.column_stack([np.mod(jc[rows, best] - half_i, two_pi), 2 * half_i])
+
+
+def vertex_intervals(theta: np.ndarray, options: MeshOptions) -> np.ndarray:
+    """Arcs I_k for a thick piece without crosscuts: one core per prevertex θ_k
+    (see :func:`_choose_arcs`)."""
+    prv, nxt = _arc_gaps(theta)
+    return _choose_arcs(theta, np.zeros_like(theta), np.minimum(prv, nxt), options)
+
+
+def piece_intervals(
+    theta: np.ndarray, stretches: list[tuple[int, int]], options: MeshOptions
+) -> tuple[np.ndarray, list[tuple[str, int]]]:
+    """Arcs I_j of a thick piece: one per vertex outside the crosscut stretches and one per
+    stretch (piece vertices ``start..stop`` modulo the piece size, counter-clockwise).
+
+    Returns the (m, 2) arcs in boundary order and, per arc, ("vertex", piece vertex) or
+    ("crosscut", stretch index).
+    """
+    k = theta.size
+    two_pi = 2 * np.pi
+    owner = np.full(k, -1)
+    for si, (a, b) in enumerate(stretches):
+        idx = np.arange(a, a + (b - a) % k + 1) % k
+        owner[idx] = si
+    cores: list[tuple[int, int, tuple[str, int]]] = []  # (first, last) vertex indices
+    done = set()
+    for i in range(k):
+        if owner[i] < 0:
+            cores.append((i, i, ("vertex", i)))
+        elif owner[i] not in done:
+            a, b = stretches[owner[i]]
+            cores.append((a, b, ("crosscut", int(owner[i]))))
+            done.add(owner[i])
+    first = np.array([c[0] for c in cores])
+    last = np.array([c[1] for c in cores])
+    lo, hi = theta[first], theta[last]
+    span = np.mod(hi - lo, two_pi)
+    half = span / 2
+    centre = lo + half
+    order = np.argsort(np.mod(lo, two_pi))
+    lo_s, hi_s = lo[order], hi[order]
+    before = np.mod(lo_s - np.roll(hi_s, 1), two_pi)
+    after = np.mod(np.roll(lo_s, -1) - hi_s, two_pi)
+    gap = np.empty_like(before)
+    gap[order] = np.minimum(before, after)
+    arcs = _choose_arcs(centre, half, gap, options)
+    return arcs, [c[2] for c in cores]
+
+
+def _project_to_sides(
+    w: np.ndarray, t: np.ndarray, theta: np.ndarray, zpoly: np.ndarray
+) -> np.ndarray:
+    """Put images of circle points exactly on their polygon side.
+
+    A point e^{it} of the circle between prevertices θ_k and θ_{k+1} maps to side
+    [w_k, w_{k+1}]; the computed value carries quadrature error, so it is replaced by its
+    orthogonal projection onto that segment.
+    """
+    order = np.argsort(theta)
+    ts = theta[order]
+    pos = np.searchsorted(ts, np.mod(t, 2 * np.pi), side="right") - 1
+    k = order[np.mod(pos, theta.size)]
+    a = zpoly[k]
+    b = zpoly[(k + 1) % zpoly.size]
+    d = b - a
+    s = np.clip(((w - a) * np.conj(d)).real / np.abs(d) ** 2, 0.0, 1.0)
+    return a + s * d
+
+
+def _push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarray:
+    """Images in the plane of the disk-mesh vertices (paper §7).
+
+    f at every vertex (by per-piece power series where they converge, CONFORMAL.md
+    §1.10), circle vertices projected onto their side, and inside each inner triangle T_i
+    the linear map h(ζ) = g(c) + (ζ − c)·g'(c) with g = f∘τ⁻¹ (a similarity, so the model
+    angles of the T_i quads survive exactly).
+    """
+    zd = disk.vertices
+    image = _evaluate_map(fmap, disk)
+    circ = np.asarray(disk.on_circle, dtype=bool)
+    if np.any(circ):
+        image[circ] = _project_to_sides(image[circ], np.angle(zd[circ]), theta, zpoly)
+    tris = disk.triangles
+    if len(tris):
+        idx = np.concatenate([np.asarray(t.inner_vertices) for t in tris])
+        zeta = np.concatenate([np.asarray(t.inner_model) for t in tris])
+        tid = np.repeat(np.arange(len(tris)), [len(t.inner_vertices) for t in tris])
+        zc, dzc = _triangle_centres(tris)
+        gc = fmap(zc)
+        dgc = fmap.derivative(zc) * dzc
+        c0 = np.array([t.center for t in tris], dtype=complex)
+        image[idx] = gc[tid] + (zeta - c0[tid]) * dgc[tid]
+    return image
+
+
+def _triangle_centres(tris) -> tuple[np.ndarray, np.ndarray]:
+    """τ⁻¹(c) and (τ⁻¹)'(c) for every Carleson triangle, c the model centre of T_i.
+
+    τ⁻¹ = φ_a⁻¹ ∘ τ_local (a = the triangle's frame point) is evaluated in this factored
+    form, which keeps relative accuracy for tiny triangles near the circle.
+    """
+    loc = np.stack([np.asarray(t.tau_local) for t in tris])
+    a = np.array([t.frame for t in tris], dtype=complex)
+    c0 = np.array([t.center for t in tris], dtype=complex)
+    p, q, r, s = loc[:, 0, 0], loc[:, 0, 1], loc[:, 1, 0], loc[:, 1, 1]
+    u = (p * c0 + q) / (r * c0 + s)
+    du = (p * s - q * r) / (r * c0 + s) ** 2
+    zc = (u + a) / (1.0 + np.conj(a) * u)
+    dphi = (1.0 - np.abs(a) ** 2) / (1.0 + np.conj(a) * u) ** 2
+    return zc, dphi * du
+
+
+def _evaluate_map(fmap, disk) -> np.ndarray:
+    """f at all disk-mesh vertices, grouped by piece for the power-series evaluator."""
+    zd = disk.vertices
+    return np.asarray(fmap.map_clusters(zd, disk.vertex_piece, disk.piece_center))
+
+
+def _check_cancel(cancel: CancelCallback | None, stage: str) -> None:
+    if cancel is not None and cancel():
+        raise Cancelled(f"cancelled before {stage}")
+
+
+@dataclass
+class _Piece:
+    """Work data of one thick piece: its map, its arcs and what each arc belongs to."""
+
+    index: int
+    z: np.ndarray
+    fmap: object
+    theta: np.ndarray
+    intervals: np.ndarray
+    owners: list[tuple[str, int]]
+    stretches: list
+
+
+def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _Piece:
+    """Solve the Schwarz–Christoffel map of a thick piece and choose its arcs I_j."""
+    from .conformal import DiskMap
+
+    t0 = time.perf_counter()
+    try:
+        fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
+    except ConformalMapError as exc:
+        raise ConformalMapError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+    timings["conformal"] = timings.get("conformal", 0.0) + time.perf_counter() - t0
+    t0 = time.perf_counter()
+    theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
+    stretches = [(int(c.start), int(c.stop)) for c in piece.crosscuts]
+    try:
+        intervals, owners = piece_intervals(theta, stretches, options)
+    except DiskConstructionError as exc:
+        raise DiskConstructionError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+    timings["intervals"] = timings.get("intervals", 0.0) + time.perf_counter() - t0
+    return _Piece(piece.index, np.asarray(piece.z), fmap, theta, intervals, owners, stretches)
+
+
+def _disk_and_image(pd: _Piece, n: int, options: MeshOptions, timings: dict[str, float]):
+    """Lemma 2.2 region and its mesh for one piece, pushed forward (paper §7)."""
+    from .disk import disk_mesh
+
+    t0 = time.perf_counter()
+    try:
+        disk = disk_mesh(
+            pd.intervals,
+            A=options.lemma_A,
+            n=n,
+            depth_step=options.depth_step,
+            inner_height=options.inner_height,
+        )
+    except DiskConstructionError as exc:
+        raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
+    timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
+    t0 = time.perf_counter()
+    image = _push_forward(pd.fmap, disk, pd.theta, pd.z)
+    timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
+    return disk, image
+
+
+def _orient_to_walls(gamma_ids: np.ndarray, pts: np.ndarray, frame) -> np.ndarray:
+    """Order a channel-side crosscut from wall 1 to wall 2 (wall 1 = the frame's real axis)."""
+    w = (pts[[0, -1]] - frame.origin) / frame.direction
+    d1 = np.abs(np.angle(w)) if frame.kind == "angled" else np.abs(w.imag)
+    return gamma_ids if d1[0] <= d1[1] else gamma_ids[::-1]
+
+
+def _walls_of(frame):
+    from .thin.channel import Walls
+
+    if frame.kind == "angled":
+        return Walls.wedge(frame.origin, frame.direction, frame.beta)
+    return Walls.parallel(frame.origin, frame.direction, frame.width)
+
+
+def _glue(asm: _Assembler, verts: np.ndarray, quads: np.ndarray, fixed: dict, source: int):
+    """Add a thin-part mesh: vertices listed in ``fixed`` (local index -> global id) are
+    the crosscut vertices it was built on; all others are new. Returns the global ids."""
+    gl = np.full(verts.size, -1, dtype=np.int64)
+    loc = np.fromiter(fixed.keys(), dtype=np.int64, count=len(fixed))
+    gl[loc] = np.fromiter(fixed.values(), dtype=np.int64, count=len(fixed))
+    own = gl < 0
+    gl[own] = asm.add_vertices(verts[own])
+    asm.add_quads(gl[np.asarray(quads)], source=source)
+    return gl
+
+
+def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin):
+    """Vertex sector (paper §8, parabolic case), through a conformal collar when the
+    crosscut is not round about the vertex."""
+    from .thin.parabolic import mesh_vertex_sector
+
+    args = (corner.apex, corner.dir_out, float(corner.angle))
+    try:
+        sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
+    except ThinPartError as first:
+        try:
+            from .thin.channel import Walls
+            from .thin.collar import conformal_collar
+
+            col = conformal_collar(
+                gamma, Walls.wedge(corner.apex, corner.dir_out, float(corner.angle)), toward="inner"
+            )
+        except ThinPartError as exc:
+            raise ThinPartError(
+                f"vertex {corner.index}: {first.args[0]}; collar: {exc.args[0]}"
+            ) from exc
+        cgl = _glue(
+            asm,
+            np.asarray(col.vertices),
+            col.quads,
+            dict(zip(np.asarray(col.gamma_index).tolist(), gamma_gl.tolist())),
+            1,
+        )
+        thin.append(ThinPartResult("parabolic", corner.index, col, cgl))
+        straight = np.asarray(col.vertices)[np.asarray(col.straight_index)]
+        try:
+            sec = mesh_vertex_sector(*args, straight, lam=options.sector_ratio)
+        except ThinPartError as exc:
+            raise ThinPartError(f"vertex {corner.index}: {exc.args[0]}") from exc
+        gamma_gl = cgl[np.asarray(col.straight_index)]
+    gl = _glue(
+        asm,
+        np.asarray(sec.vertices),
+        sec.quads,
+        dict(zip(np.asarray(sec.gamma_index).tolist(), gamma_gl.tolist())),
+        1,
+    )
+    thin.append(ThinPartResult("parabolic", corner.index, sec, gl))
+
+
+def _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin):
+    """Channel connector (paper §8, hyperbolic case) between the two thick pieces'
+    crosscut images, each first straightened by a conformal collar if needed."""
+    from .thin.channel import mesh_channel
+
+    walls = _walls_of(ch.frame)
+    try:
+        cm = mesh_channel(ga, gb, walls=walls)
+    except ThinPartError as first:
+        from .thin.collar import conformal_collar
+
+        ends = []
+        for g, ggl, toward in ((ga, ga_gl, "outer"), (gb, gb_gl, "inner")):
+            try:
+                col = conformal_collar(g, walls, toward=toward)
+            except ThinPartError as exc:
+                raise ThinPartError(
+                    f"channel {ch.id}: {first.args[0]}; collar: {exc.args[0]}"
+                ) from exc
+            cgl = _glue(
+                asm,
+                np.asarray(col.vertices),
+                col.quads,
+                dict(zip(np.asarray(col.gamma_index).tolist(), ggl.tolist())),
+                2,
+            )
+            thin.append(ThinPartResult("hyperbolic", ch.id, col, cgl))
+            si = np.asarray(col.straight_index)
+            ends.append((np.asarray(col.vertices)[si], cgl[si]))
+        (ga, ga_gl), (gb, gb_gl) = ends
+        try:
+            cm = mesh_channel(ga, gb, walls=walls)
+        except ThinPartError as exc:
+            raise ThinPartError(f"channel {ch.id}: {exc.args[0]}") from exc
+    fixed = dict(zip(np.asarray(cm.gamma1_index).tolist(), ga_gl.tolist()))
+    fixed.update(zip(np.asarray(cm.gamma2_index).tolist(), gb_gl.tolist()))
+    gl = _glue(asm, np.asarray(cm.vertices), cm.quads, fixed, 2)
+    thin.append(ThinPartResult("hyperbolic", ch.id, cm, gl))
+
+
+def mesh_polygon(
+    polygon: object,
+    options: MeshOptions | None = None,
+    progress: ProgressCallback | None = None,
+    cancel: CancelCallback | None = None,
+) -> MeshResult:
+    """Mesh a simple polygon by quadrilaterals with every new angle in [60°, 120°].
+
+    Args:
+        polygon: an (n, 2) float array, a complex array or a :class:`~quadmesh.Polygon`.
+        options: the knobs (:class:`MeshOptions`); defaults from the design notes.
+        progress: optional callback ``progress(stage, fraction)``.
+        cancel: optional callable polled between stages; returning True raises
+            :class:`~quadmesh.errors.Cancelled`.
+
+    Returns:
+        A :class:`MeshResult` whose ``mesh`` passed :meth:`QuadMesh.verify`.
+
+    Raises:
+        PolygonError: invalid input. ConformalMapError, DiskConstructionError,
+        ThinPartError, DecompositionError: a stage could not handle the input.
+        MeshVerificationError: the assembled mesh failed verification (never returned).
+    """
+    from .decompose import DecomposeOptions, decompose
+    from .mesh import QuadMesh
+
+    options = options or MeshOptions()
+    timings: dict[str, float] = {}
+
+    def report(stage: str, fraction: float) -> None:
+        _check_cancel(cancel, stage)
+        if progress is not None:
+            progress(stage, fraction)
+
+    report("validate", 0.0)
+    t0 = time.perf_counter()
+    poly: Polygon = validate_polygon(polygon)
+    timings["validate"] = time.perf_counter() - t0
+
+    report("decompose", 0.05)
+    t0 = time.perf_counter()
+    dec = decompose(poly, DecomposeOptions(delta=options.channel_delta))
+    timings["decompose"] = time.perf_counter() - t0
+
+    work: list[_Piece] = []
+    for i, piece in enumerate(dec.thick):
+        report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
+        work.append(_prepare_piece(piece, options, timings))
+
+    # the same n everywhere: both sides of a channel must carry the same vertex count
+    ns = [n for n in ADAPTIVE_N if options.n <= n <= options.max_n]
+    if not options.adaptive or not ns:
+        ns = [options.n]
+    fixes: list[str] = []
+    for n in ns:
+        disks = []
+        worst = (ANGLE_MIN, ANGLE_MAX, -1)
+        for i, pd in enumerate(work):
+            report("disk mesh", 0.4 + 0.3 * i / len(work))
+            disk, image = _disk_and_image(pd, n, options, timings)
+            disks.append((disk, image))
+            ang = quad_angles_deg(image, disk.quads)
+            lo, hi = float(ang.min()), float(ang.max())
+            if lo < worst[0] - ANGLE_TOL or hi > worst[1] + ANGLE_TOL:
+                worst = (min(lo, worst[0]), max(hi, worst[1]), pd.index)
+        if worst[2] < 0:
+            break
+        fixes.append(
+            f"n = {n}: pushed-forward angles [{worst[0]:.2f}, {worst[1]:.2f}] in thick piece "
+            f"{worst[2]}; raising n"
+        )
+    else:
+        raise DiskConstructionError(
+            f"{fixes[-1].split('; ')[0]}: no n up to {ns[-1]} keeps the images in "
+            "[60°, 120°] (the conformal map distorts the disk mesh too much)"
+        )
+
+    asm = _Assembler()
+    pieces: list[ThickPieceResult] = []
+    gam: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+    for pd, (disk, image) in zip(work, disks):
+        ids = asm.add_vertices(image)
+        asm.add_quads(ids[disk.quads], source=0)
+        src = np.asarray(dec.thick[pd.index].source)
+        owners = []
+        for j, (kind, idx) in enumerate(pd.owners):
+            g = np.asarray(disk.gamma[j])
+            if kind == "vertex":
+                owners.append(("vertex", int(src[idx])))
+                gam[("vertex", int(src[idx]))] = (image[g], ids[g])
+            else:
+                cc = dec.thick[pd.index].crosscuts[idx]
+                ch = dec.channels[cc.channel]
+                g = _orient_to_walls(g, image[g], ch.frame)
+                owners.append(("channel", int(cc.channel), int(cc.end)))
+                gam[("channel", int(cc.channel), int(cc.end))] = (image[g], ids[g])
+        pieces.append(
+            ThickPieceResult(
+                index=pd.index,
+                vertices=pd.z,
+                map=pd.fmap,
+                intervals=pd.intervals,
+                interval_owner=tuple(owners),
+                disk=disk,
+                image=image,
+                n_used=n,
+                fixes=tuple(fixes),
+            )
+        )
+
+    thin: list[ThinPartResult] = []
+    t0 = time.perf_counter()
+    for corner in dec.corners:
+        report("vertex sectors", 0.7 + 0.1 * corner.index / len(dec.corners))
+        pts, gl = gam[("vertex", int(corner.index))]
+        _sector(corner, pts, gl, options, asm, thin)
+    for ch in dec.channels:
+        report("channels", 0.8)
+        (ga, ga_gl), (gb, gb_gl) = gam[("channel", ch.id, 0)], gam[("channel", ch.id, 1)]
+        _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin)
+    timings["thin"] = time.perf_counter() - t0
+
+    report("verify", 0.9)
+    t0 = time.perf_counter()
+    z = asm.vertices()
+    quads, source = asm.all_quads()
+    mesh = QuadMesh(np.column_stack([z.real, z.imag]), quads)
+    verification = mesh.verify(poly, angle_tol=ANGLE_TOL)
+    timings["verify"] = time.perf_counter() - t0
+    if not verification.ok:
+        raise MeshVerificationError(
+            "the assembled mesh failed verification: " + "; ".join(verification.problems[:5])
+        )
+    quality = verification.quality
+    report("done", 1.0)
+    return MeshResult(
+        polygon=poly,
+        options=options,
+        decomposition=dec,
+        pieces=tuple(pieces),
+        thin=tuple(thin),
+        mesh=mesh,
+        quality=quality,
+        verification=verification,
+        timings=timings,
+        quad_source=source,
+    )
