@@ -317,6 +317,7 @@ def _disk_and_image(pd: _Piece, n: int, options: MeshOptions, timings: dict[str,
             n=n,
             depth_step=options.depth_step,
             inner_height=options.inner_height,
+            depth_growth=options.depth_growth,
         )
     except DiskConstructionError as exc:
         raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc

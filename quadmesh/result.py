@@ -29,6 +29,9 @@ class MeshOptions:
             chord angles stay in [60°, 120°]; the adaptive loop raises it per thick piece.
         depth_step: spacing of the global depth sequence d_k shared by Carleson
             quadrilaterals and triangles (Lemmas 5.1, 6.1; DISK.md §5–§6).
+        depth_growth: ratio of consecutive depth steps below the triangle landmark D5
+            (1 = uniform). The deep rows are thin strips near 90°, so 2 halves their
+            number at no measurable cost in angle (measured in the model triangle).
         inner_height: height h of the inner triangle T_i in the model Carleson triangle
             (DISK.md §6; the paper's §7 wants it small relative to the triangle).
         crosscut_ratio: A_eff = g/φ, prevertex gap over the half-width of the arc J_k whose
@@ -47,6 +50,7 @@ class MeshOptions:
 
     n: int = 2
     depth_step: float = 0.25
+    depth_growth: float = 2.0
     inner_height: float = 1.0
     crosscut_ratio: float = 64.0
     lemma_A: float = 16.0
@@ -61,6 +65,8 @@ class MeshOptions:
             raise ValueError(f"n must be a positive integer, got {self.n}")
         if not 0 < self.depth_step <= 1:
             raise ValueError(f"depth_step must be in (0, 1], got {self.depth_step}")
+        if not 1.0 <= self.depth_growth <= 4.0:
+            raise ValueError(f"depth_growth must be in [1, 4], got {self.depth_growth}")
         if not 0 < self.inner_height <= 2:
             raise ValueError(f"inner_height must be in (0, 2], got {self.inner_height}")
         if self.crosscut_ratio < 4:

@@ -157,6 +157,7 @@ def disk_mesh(
     n: int = 2,
     depth_step: float = 0.25,
     inner_height: float = 1.0,
+    depth_growth: float = 1.0,
 ) -> DiskMesh:
     """Conforming quad mesh of W for arcs ``intervals`` (Lemma 2.2 and §§4–6 of the paper).
 
@@ -166,6 +167,9 @@ def disk_mesh(
         n: steps per half pentagon side; ``N_side = 2n`` on every pentagon side and Carleson top.
         depth_step: spacing of the global depth sequence (``depth_sequence(inner_height, step)``).
         inner_height: height ``h`` of the inner triangle ``T_i`` of the Carleson-triangle model.
+        depth_growth: ratio of consecutive depth steps below the last triangle landmark D5
+            (1 = uniform; ``depth_sequence(..., growth=)``). Rows below D5 are thin Euclidean
+            strips near 90° (DISK.md §8.5), so coarsening them saves quads.
 
     Raises:
         DiskConstructionError: if Lemma 2.2's hypotheses fail or the pieces do not fit.
@@ -182,7 +186,7 @@ def disk_mesh(
         )
     n = int(n)
     ns = 2 * n
-    depths = depth_sequence(inner_height, depth_step)
+    depths = depth_sequence(inner_height, depth_step, growth=depth_growth)
     Md = depths.size - 1
     PM = pentagon_mesh(n)
     CQ = carleson_quad_mesh(ns, depths)

@@ -146,7 +146,7 @@ def require_angles(
     lo: float,
     hi: float,
     what: str,
-    tol: float = 1e-7,
+    tol: float = 1e-6,
 ) -> None:
     """Raise :class:`ThinPartError` unless every masked corner angle lies in [lo, hi] degrees."""
     areas = quad_signed_areas(vertices, quads)
@@ -155,6 +155,6 @@ def require_angles(
     ang = quad_angles_deg(vertices, quads)[mask]
     if ang.size and (ang.min() < lo - tol or ang.max() > hi + tol):
         raise ThinPartError(
-            f"{what}: produced angles in [{ang.min():.2f}, {ang.max():.2f}] degrees, "
+            f"{what}: produced angles in [{ang.min():.9f}, {ang.max():.9f}] degrees, "
             f"outside [{lo:g}, {hi:g}]"
         )
