@@ -365,12 +365,10 @@ def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin)
         sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
     except ThinPartError as first:
         try:
-            from .thin.channel import Walls
-            from .thin.collar import conformal_collar
+            from .thin.collar import conformal_collar, vertex_walls
 
-            col = conformal_collar(
-                gamma, Walls.wedge(corner.apex, corner.dir_out, float(corner.angle)), toward="inner"
-            )
+            walls = vertex_walls(corner.apex, corner.dir_out, float(corner.angle))
+            col = conformal_collar(gamma, walls, toward="inner")
         except ThinPartError as exc:
             raise ThinPartError(
                 f"vertex {corner.index}: {first.args[0]}; collar: {exc.args[0]}"

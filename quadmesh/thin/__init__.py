@@ -5,6 +5,7 @@
 """
 
 from .channel import Walls, default_crosscut_count, mesh_channel
+from .collar import CollarMesh, conformal_collar, vertex_walls  # noqa: F401
 from .mesh import KIND_NAMES, ChannelMesh, ThinMesh, quad_angles_deg
 from .parabolic import mesh2_local, mesh_vertex_sector, split_count
 
