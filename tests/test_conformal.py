@@ -1,0 +1,267 @@
+"""Tests of the Schwarz–Christoffel disk map (CONFORMAL.md §1) and the inscribed centre."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.special as sp
+
+from quadmesh.conformal import DiskMap, inscribed_center
+from quadmesh.conformal.diskmap import _Problem
+from quadmesh.conformal.quadrature import gauss_jacobi
+from quadmesh.errors import ConformalMapError, PolygonError
+
+TOL = 1e-10
+
+
+def rect(ar: float) -> np.ndarray:
+    return np.array([0, ar, ar + 1j, 1j])
+
+
+def random_star(n: int, lo: float, hi: float, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return rng.uniform(lo, hi, n) * np.exp(2j * np.pi * np.arange(n) / n)
+
+
+L_SHAPE = np.array([0, 2, 2 + 1j, 1 + 1j, 1 + 2j, 2j])
+
+
+def corner5() -> np.ndarray:
+    """A polygon with a 5° corner at the origin whose wedge opens into a wide region."""
+    a = np.deg2rad(5.0)
+    return np.array([0, 1, 2 - 1j, 3.5 + 1j, 2 + 3j, np.exp(1j * a)])
+
+
+def reflex355() -> np.ndarray:
+    """A square with a thin notch whose tip has interior angle 355°."""
+    e = np.tan(np.deg2rad(2.5))
+    return np.array([0, 2, 2 + 2j, 1 + e + 2j, 1 + 1j, 1 - e + 2j, 2j])
+
+
+def assert_checks(dm: DiskMap, tol: float = TOL) -> None:
+    acc = dm.accuracy()
+    assert acc.residual < tol
+    assert acc.side_error < tol
+    assert acc.center_error < tol
+    assert acc.boundary_deviation < tol
+    assert acc.round_trip < 1e-12
+    assert acc.passed(tol)
+
+
+def test_gauss_jacobi_matches_scipy() -> None:
+    betas = np.array([-0.97, -0.5, 0.0, 0.5, 0.97])
+    xp1, w = gauss_jacobi(betas, 12)
+    for i, b in enumerate(betas):
+        x, ww = sp.roots_jacobi(12, 0.0, b)
+        assert np.max(np.abs(xp1[i] - 1.0 - x)) < 1e-14
+        assert np.max(np.abs(w[i] - ww) / ww) < 1e-12
+
+
+def test_analytic_jacobian_matches_finite_differences() -> None:
+    w = random_star(9, 0.6, 1.4, 3)
+    prob = _Problem(w, 0.05 + 0.02j, 12)
+    x = np.random.default_rng(1).normal(0, 0.2, 8)
+    x[2] -= 20.0  # one crowded gap (≈ 1e-9): the rotation-identity columns are exercised
+    _, J, *_ = prob.evaluate(x)
+    Jf = np.zeros_like(J)
+    for i in range(x.size):
+        e = np.zeros_like(x)
+        e[i] = 1e-6
+        Jf[:, i] = (prob.evaluate(x + e, False)[0] - prob.evaluate(x - e, False)[0]) / 2e-6
+    assert np.max(np.abs(J - Jf)) < 1e-7
+
+
+@pytest.mark.parametrize("n", range(3, 65))
+def test_regular_ngon_has_equally_spaced_prevertices(n: int) -> None:
+    w = np.exp(2j * np.pi * np.arange(n) / n)
+    dm = DiskMap.from_polygon(w, 0.0, check=False)
+    assert np.max(np.abs(dm.gaps - 2 * np.pi / n)) < 1e-12
+    assert dm.residual < 1e-12
+    assert np.allclose(np.abs(dm.prevertices), 1.0)
+
+
+def test_square_default_center_is_its_centre() -> None:
+    dm = DiskMap.from_polygon(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float))
+    assert abs(dm.center - (0.5 + 0.5j)) < 1e-12
+    assert abs(dm(np.array([0j]))[0] - (0.5 + 0.5j)) < 1e-14
+    assert np.max(np.abs(dm.gaps - np.pi / 2)) < 1e-13
+    assert_checks(dm)
+
+
+@pytest.mark.parametrize("ar", [2, 5, 10])
+def test_rectangle_prevertex_pattern_and_checks(ar: float) -> None:
+    dm = DiskMap.from_polygon(rect(ar))
+    assert abs(dm.center - (ar / 2 + 0.5j)) < 1e-9
+    g = dm.gaps  # g[k] is the arc mapped onto side k
+    assert abs(g[0] - g[2]) < 1e-12 * g[0] + 1e-15
+    assert abs(g[1] - g[3]) < 1e-12 * g[1] + 1e-15
+    assert g[1] < g[0]  # the short sides get the short arcs
+    if ar >= 5:  # crowding law 8 exp(-π AR/2) (CONFORMAL.md §1.8)
+        assert abs(g[1] / (8 * np.exp(-np.pi * ar / 2)) - 1) < 1e-3
+    assert_checks(dm)
+
+
+def test_l_shape() -> None:
+    dm = DiskMap.from_polygon(L_SHAPE, 0.5 + 0.5j)
+    assert_checks(dm)
+    assert np.allclose(dm.angles, [0.5, 0.5, 0.5, 1.5, 0.5, 0.5])
+    assert abs(dm(np.array([0j]))[0] - (0.5 + 0.5j)) < 1e-13
+    # prevertices map to the vertices
+    assert np.max(np.abs(dm(dm.prevertices) - L_SHAPE)) < 1e-12
+    # the default centre is the inscribed-disk centre on the diagonal
+    c, r = inscribed_center(L_SHAPE)
+    assert abs(c.real - c.imag) < 1e-6 and abs(r - np.sqrt(2) / (1 + np.sqrt(2))) < 1e-3
+    assert_checks(DiskMap.from_polygon(L_SHAPE))
+
+
+def test_regular_12gon() -> None:
+    dm = DiskMap.from_polygon(np.exp(2j * np.pi * np.arange(12) / 12))
+    assert_checks(dm)
+    assert np.max(np.abs(np.diff(dm.theta) - np.pi / 6)) < 1e-13
+
+
+def test_random_star_30() -> None:
+    dm = DiskMap.from_polygon(random_star(30, 0.5, 1.5, 0), 0.0)
+    assert_checks(dm)
+    assert np.allclose(np.diff(dm.theta), dm.gaps[:-1], rtol=0, atol=1e-15)
+
+
+def test_random_star_100_crowded() -> None:
+    """iid radii in [0.5, 1.5]: the smallest gap is about 1e-10, below the prototype's reach."""
+    dm = DiskMap.from_polygon(random_star(100, 0.5, 1.5, 0), 0.0)
+    assert dm.accuracy().min_gap < 1e-9
+    assert_checks(dm)
+
+
+@pytest.mark.slow
+def test_random_star_300() -> None:
+    dm = DiskMap.from_polygon(random_star(300, 0.8, 1.2, 0), 0.0)
+    assert_checks(dm)
+
+
+def test_five_degree_corner() -> None:
+    w = corner5()
+    dm = DiskMap.from_polygon(w)
+    assert abs(dm.angles[0] - 5 / 180) < 1e-12
+    assert_checks(dm)
+
+
+def test_reflex_355_degree_corner() -> None:
+    dm = DiskMap.from_polygon(reflex355(), 0.5 + 0.5j)
+    assert abs(dm.angles[4] - 355 / 180) < 1e-12
+    assert_checks(dm)
+
+
+def test_round_trips_on_interior_grids() -> None:
+    dm = DiskMap.from_polygon(L_SHAPE, 0.5 + 0.5j)
+    r, t = np.meshgrid(np.linspace(0, 0.97, 12), np.linspace(0, 2 * np.pi, 24, endpoint=False))
+    z = (r * np.exp(1j * t)).ravel()
+    assert np.max(np.abs(dm.inverse(dm(z)) - z)) < 1e-10
+    x, y = np.meshgrid(np.linspace(0.025, 1.975, 14), np.linspace(0.025, 1.975, 14))
+    w = (x + 1j * y).ravel()
+    w = w[(w.real < 0.99) | (w.imag < 0.99)]
+    zw = dm.inverse(w)
+    assert np.all(np.abs(zw) < 1)
+    assert np.max(np.abs(dm(zw) - w)) < 1e-10
+    assert np.max(np.abs(dm.direct(zw) - w)) < 1e-10
+
+
+def test_inverse_non_star_shaped_about_center() -> None:
+    """The L-shape about its lower-arm point: starts come from the image table."""
+    dm = DiskMap.from_polygon(L_SHAPE, 1.5 + 0.5j)
+    assert not dm._star
+    w = np.array([0.5 + 1.5j, 0.1 + 1.9j, 1.9 + 0.1j, 0.9 + 0.9j])
+    z = dm.inverse(w)
+    assert np.max(np.abs(dm(z) - w)) < 1e-10
+
+
+def test_fast_forward_matches_quadrature_everywhere() -> None:
+    dm = DiskMap.from_polygon(random_star(30, 0.5, 1.5, 0), 0.0)
+    rng = np.random.default_rng(7)
+    z = np.sqrt(rng.uniform(0, 1, 400)) * np.exp(2j * np.pi * rng.uniform(0, 1, 400))
+    # points very close to prevertices and to the circle as well
+    near = dm.prevertices[:, None] * (1 - np.array([1e-9, 1e-5, 1e-3])[None, :])
+    z = np.r_[z, near.ravel(), 0.999999 * np.exp(1j * (dm.theta + 0.3 * dm.gaps))]
+    scale = np.max(np.abs(dm.vertices))
+    assert np.max(np.abs(dm(z) - dm.direct(z))) < 1e-12 * scale
+
+
+def test_derivative_closed_form() -> None:
+    dm = DiskMap.from_polygon(L_SHAPE, 0.5 + 0.5j)
+    z = np.array([0.1 + 0.2j, -0.5 + 0.3j, 0.7j, 0.8])
+    h = 1e-5
+    fd = (dm.direct(z + h) - dm.direct(z - h)) / (2 * h)
+    assert np.max(np.abs(dm.derivative(z) - fd)) < 1e-8
+    # series derivative through map_clusters agrees with the closed form
+    f, fp = dm.map_clusters(z, np.arange(4), z * 0.99, derivative=True)
+    assert np.max(np.abs(fp - dm.derivative(z))) < 1e-12
+    assert np.max(np.abs(f - dm.direct(z))) < 1e-12
+
+
+def test_taylor_series_matches_quadrature() -> None:
+    dm = DiskMap.from_polygon(random_star(30, 0.5, 1.5, 0), 0.0)
+    rng = np.random.default_rng(3)
+    for c in (0.0, 0.4 + 0.3j, -0.7j, 0.9 * np.exp(1j * (dm.theta[5] + 0.5 * dm.gaps[5]))):
+        ts = dm.taylor(c, order=40)
+        R = ts.radius
+        assert abs(R - np.min(np.abs(dm.prevertices - c))) < 1e-15
+        t = 0.5 * R * np.sqrt(rng.uniform(0, 1, 200)) * np.exp(2j * np.pi * rng.uniform(0, 1, 200))
+        t = t[np.abs(c + t) <= 1]
+        direct = dm.direct(c + t)
+        assert np.max(np.abs(ts(t) - direct)) < 1e-12
+        assert np.max(np.abs(ts.derivative(t) - dm.derivative(c + t))) < 1e-12 * np.max(
+            np.abs(dm.derivative(c + t))
+        )
+
+
+def test_map_clusters_uses_series_and_falls_back() -> None:
+    dm = DiskMap.from_polygon(L_SHAPE, 0.5 + 0.5j)
+    rng = np.random.default_rng(5)
+    centers = np.array([0.2 + 0.1j, -0.3 + 0.4j, 0.95 * dm.prevertices[3]])
+    pts, ids = [], []
+    for i, c in enumerate(centers):
+        R = np.min(np.abs(dm.prevertices - c))
+        rad = 0.45 * R if i < 2 else 3 * R  # the last cluster is too wide: fallback
+        p = c + rad * np.sqrt(rng.uniform(0, 1, 300)) * np.exp(2j * np.pi * rng.uniform(0, 1, 300))
+        p = p[np.abs(p) < 1]
+        pts.append(p)
+        ids.append(np.full(p.size, i))
+    z = np.concatenate(pts)
+    f = dm.map_clusters(z, np.concatenate(ids), centers)
+    assert np.max(np.abs(f - dm.direct(z))) < 1e-12
+
+
+def test_crowded_rectangle_raises() -> None:
+    with pytest.raises(ConformalMapError, match="crowding"):
+        DiskMap.from_polygon(rect(30))
+
+
+def test_local_coordinates_beyond_double_resolution() -> None:
+    """AR 26: the short-side gaps (1.5e-17) are below the resolution of exp(iθ); the map is
+    still solved to 1e-12 in local coordinates when the gap floor is switched off."""
+    dm = DiskMap.from_polygon(rect(26), min_gap=0.0)
+    g = dm.gaps
+    assert g[1] < 1e-16 and abs(g[1] / (8 * np.exp(-np.pi * 13)) - 1) < 1e-3
+    assert dm.accuracy().worst < 1e-12
+    # the short side (vertex 1 → 2) is reached through local offsets from prevertex 1
+    t = dm.prevertices[1] * np.expm1(1j * g[1] * np.array([0.0, 0.1, 0.3, 0.5, 0.8]))
+    f = dm.map_near_vertex(1, t)
+    assert abs(f[0] - 26) < 1e-12
+    assert np.max(np.abs(f.real - 26)) < 1e-9
+    assert np.all(np.diff(f.imag) > 0.05) and 0.5 < f[-1].imag < 1
+
+
+def test_bad_input() -> None:
+    with pytest.raises(PolygonError):
+        DiskMap.from_polygon(rect(2)[::-1])  # clockwise
+    with pytest.raises(PolygonError):
+        DiskMap.from_polygon(rect(2), center=5 + 5j)
+
+
+def test_inscribed_center() -> None:
+    c, r = inscribed_center(rect(10))
+    assert abs(c - (5 + 0.5j)) < 1e-6 and abs(r - 0.5) < 1e-12
+    c, r = inscribed_center(np.exp(2j * np.pi * np.arange(7) / 7))
+    assert abs(c) < 1e-6 and abs(r - np.cos(np.pi / 7)) < 1e-6
+    c, r = inscribed_center(np.column_stack([L_SHAPE.real, L_SHAPE.imag]))
+    assert abs(r - np.sqrt(2) / (1 + np.sqrt(2))) < 1e-3
