@@ -293,6 +293,11 @@ def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _P
         fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
     except ConformalMapError as exc:
         raise ConformalMapError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise ConformalMapError(
+            f"thick piece {piece.index} ({len(piece.z)} vertices): the parameter problem broke "
+            f"down numerically ({exc}); the piece is too crowded for a disk map"
+        ) from exc
     timings["conformal"] = timings.get("conformal", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
     theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
@@ -323,7 +328,14 @@ def _disk_and_image(pd: _Piece, n: int, options: MeshOptions, timings: dict[str,
         raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
-    image = _push_forward(pd.fmap, disk, pd.theta, pd.z)
+    try:
+        image = _push_forward(pd.fmap, disk, pd.theta, pd.z)
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise ConformalMapError(
+            f"thick piece {pd.index}: evaluating the map at the disk mesh failed ({exc})"
+        ) from exc
+    if not np.all(np.isfinite(image)):
+        raise ConformalMapError(f"thick piece {pd.index}: the map gave non-finite mesh vertices")
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
     return disk, image
 
