@@ -1,0 +1,273 @@
+"""The two 2-D views (plane and unit disk): pyvistaqt interactors that hold layers.
+
+A view owns, per layer, the :class:`quadmesh.render.LayerGeometry` it draws, the actors made
+by :func:`quadmesh.render.add_layer` and the layer's visibility, colour and opacity.  Hiding a
+layer hides its colour bar too.  Left-button events are taken away from VTK by a Qt event
+filter and handed to the view's owner (drawing in the plane, the teaching tool in the disk);
+the middle button pans and the wheel zooms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import QEvent, QObject, Qt, Signal
+from PySide6.QtWidgets import QWidget
+from pyvistaqt import QtInteractor
+
+from quadmesh.hyperbolic.isometry import Isometry
+from quadmesh.render import LayerGeometry, add_layer, fit_camera
+
+__all__ = ["LayerState", "View2D"]
+
+
+@dataclass
+class LayerState:
+    """What a view knows about one layer."""
+
+    geometry: LayerGeometry | None = None
+    actors: list[Any] = field(default_factory=list)
+    visible: bool = True
+    color: str | None = None
+    opacity: float | None = None
+
+
+class _MouseFilter(QObject):
+    """Forwards left-button mouse events of the interactor to the view (and eats them); eats
+    key events so that VTK's single-key shortcuts cannot change the views."""
+
+    def __init__(self, view: View2D) -> None:
+        super().__init__(view.plotter)
+        self._view = view
+
+    def eventFilter(self, obj: QObject, event: QEvent) -> bool:
+        et = event.type()
+        v = self._view
+        if et in (QEvent.KeyPress, QEvent.KeyRelease):
+            # VTK's keyboard shortcuts (w: wireframe, j: joystick, q/e: quit, 3: stereo, ...)
+            # would break the 2-D views; the window's own shortcuts are QActions and still work
+            return True
+        if et == QEvent.Wheel or (
+            et == QEvent.MouseButtonPress
+            and (event.button() != Qt.LeftButton or not v.capture_left)
+        ):
+            v.fit_bounds = None  # the user takes over the camera
+        if not v.capture_left:
+            return False
+        if et in (QEvent.MouseButtonPress, QEvent.MouseButtonDblClick):
+            if event.button() != Qt.LeftButton:
+                return False
+            x, y = event.position().x(), event.position().y()
+            v.mouse.emit(
+                "dblclick" if et == QEvent.MouseButtonDblClick else "press",
+                v.to_world(x, y),
+                event.modifiers().value,
+            )
+            return True
+        if et == QEvent.MouseMove and event.buttons() & Qt.LeftButton:
+            v.mouse.emit("drag", v.to_world(event.position().x(), event.position().y()), 0)
+            return True
+        if et == QEvent.MouseMove:
+            v.mouse.emit("hover", v.to_world(event.position().x(), event.position().y()), 0)
+            return False
+        if et == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
+            v.mouse.emit("release", v.to_world(event.position().x(), event.position().y()), 0)
+            return True
+        return False
+
+
+class View2D(QWidget):
+    """A parallel-projection xy view with named layers.
+
+    Signals:
+        mouse(kind, world_point, modifiers): kind in {"press", "dblclick", "drag", "release",
+            "hover"}; world_point is complex.
+    """
+
+    mouse = Signal(str, complex, int)
+
+    def __init__(self, view: str, parent: QWidget | None = None, *, auto_update: bool = False):
+        super().__init__(parent)
+        from PySide6.QtWidgets import QVBoxLayout
+
+        self.view = view
+        self.plotter = QtInteractor(self, auto_update=auto_update)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.plotter)
+        self.plotter.set_background("white")
+        self.plotter.enable_parallel_projection()
+        self.plotter.enable_custom_trackball_style(
+            left="pan",
+            shift_left="pan",
+            control_left="pan",
+            middle="pan",
+            shift_middle="pan",
+            control_middle="pan",
+            right="dolly",
+            shift_right="dolly",
+            control_right="dolly",
+        )
+        self.plotter.view_xy()
+        self.layers: dict[str, LayerState] = {}
+        self.overlays: dict[str, list[Any]] = {}
+        self.capture_left = False
+        self.transform: Isometry | None = None
+        self.fit_bounds: tuple[float, float, float, float] | None = None
+        self._filter = _MouseFilter(self)
+        self.plotter.installEventFilter(self._filter)
+
+    # ------------------------------------------------------------------ coordinates
+    def to_world(self, x: float, y: float) -> complex:
+        """World (z = 0 plane) point under widget pixel (x, y) (Qt logical pixels)."""
+        ren = self.plotter.renderer
+        dpr = self.plotter.devicePixelRatioF()
+        h = self.plotter.height()
+        ren.SetDisplayPoint(x * dpr, (h - y) * dpr, 0.0)
+        ren.DisplayToWorld()
+        wx, wy, _, w = ren.GetWorldPoint()
+        if w:
+            wx, wy = wx / w, wy / w
+        return complex(wx, wy)
+
+    def to_widget(self, z: complex) -> tuple[float, float]:
+        """Widget pixel (logical) of world point ``z``."""
+        ren = self.plotter.renderer
+        dpr = self.plotter.devicePixelRatioF()
+        h = self.plotter.height()
+        ren.SetWorldPoint(z.real, z.imag, 0.0, 1.0)
+        ren.WorldToDisplay()
+        dx, dy, _ = ren.GetDisplayPoint()
+        return dx / dpr, h - dy / dpr
+
+    def pixel_size(self) -> float:
+        """World length of one widget pixel (parallel projection)."""
+        cam = self.plotter.camera
+        return 2.0 * cam.parallel_scale / max(self.plotter.height(), 1)
+
+    # ------------------------------------------------------------------ layers
+    def set_layer(self, name: str, geometry: LayerGeometry | None) -> None:
+        """Replace the geometry of layer ``name`` (None removes it), keeping its settings."""
+        st = self.layers.setdefault(name, LayerState())
+        self._remove_actors(st)
+        st.geometry = geometry
+        if geometry is None:
+            return
+        st.actors = add_layer(self.plotter, geometry, visible=st.visible)
+        self._apply_style(st)
+        if self.transform is not None:
+            self._transform_state(st)
+
+    def _remove_actors(self, st: LayerState) -> None:
+        for a in st.actors:
+            self.plotter.remove_actor(a, render=False)
+        if st.geometry is not None:
+            for title in st.geometry.scalar_bar_titles:
+                if title in self.plotter.scalar_bars.keys():
+                    self.plotter.remove_scalar_bar(title, render=False)
+        st.actors = []
+
+    def clear_layers(self, names: list[str] | None = None) -> None:
+        """Remove the geometry of the given layers (all when None)."""
+        for name in list(self.layers) if names is None else names:
+            if name in self.layers:
+                self.set_layer(name, None)
+
+    def set_visible(self, name: str, visible: bool) -> None:
+        """Show or hide a layer together with its colour bars."""
+        st = self.layers.setdefault(name, LayerState())
+        st.visible = visible
+        for a in st.actors:
+            a.SetVisibility(visible)
+        if st.geometry is not None:
+            for title in st.geometry.scalar_bar_titles:
+                if title in self.plotter.scalar_bars.keys():
+                    self.plotter.scalar_bars[title].SetVisibility(visible)
+
+    def set_color(self, name: str, color: str) -> None:
+        """Colour of the flat-coloured parts of a layer."""
+        st = self.layers.setdefault(name, LayerState())
+        st.color = color
+        self._apply_style(st)
+
+    def set_opacity(self, name: str, opacity: float) -> None:
+        """Opacity (0..1) of every part of a layer."""
+        st = self.layers.setdefault(name, LayerState())
+        st.opacity = opacity
+        self._apply_style(st)
+
+    def _apply_style(self, st: LayerState) -> None:
+        if st.geometry is None:
+            return
+        for part, actor in zip(self._drawn_parts(st), st.actors, strict=True):
+            if st.color is not None and part.scalars is None and part.style != "points":
+                actor.prop.color = st.color
+            if st.opacity is not None:
+                actor.prop.opacity = st.opacity * part.opacity
+
+    @staticmethod
+    def _drawn_parts(st: LayerState) -> list:
+        return [p for p in st.geometry.parts if p.mesh.n_points > 0] if st.geometry else []
+
+    def layer_actors(self, name: str) -> list[Any]:
+        """Actors currently drawing layer ``name``."""
+        st = self.layers.get(name)
+        return list(st.actors) if st else []
+
+    # ------------------------------------------------------------------ overlays
+    def set_overlay(self, key: str, geometry: LayerGeometry | None) -> None:
+        """Helper geometry that is not a layer (drawing handles, picked points, ...)."""
+        for a in self.overlays.pop(key, []):
+            self.plotter.remove_actor(a, render=False)
+        if geometry is not None:
+            self.overlays[key] = add_layer(self.plotter, geometry)
+
+    # ------------------------------------------------------------------ disk automorphisms
+    def set_transform(self, g: Isometry | None) -> None:
+        """Move every disk-coordinate part by the isometry ``g`` (None = identity)."""
+        self.transform = g
+        for st in self.layers.values():
+            self._transform_state(st)
+
+    def _transform_state(self, st: LayerState) -> None:
+        for part in self._drawn_parts(st):
+            if part.disk_z is None:
+                continue
+            w = part.disk_z if self.transform is None else self.transform(part.disk_z)
+            w = w * part.disk_scale
+            pts = np.asarray(part.mesh.points)
+            pts[:, 0] = w.real
+            pts[:, 1] = w.imag
+            part.mesh.points = pts
+
+    # ------------------------------------------------------------------ camera
+    def reset_view(
+        self, bounds: tuple[float, float, float, float] | None = None, *, keep: bool = False
+    ) -> None:
+        """Fit the camera to ``bounds`` (xmin, xmax, ymin, ymax), whatever the widget's aspect
+        ratio, or to everything drawn.  ``keep``: refit to these bounds on every resize."""
+        self.fit_bounds = bounds if keep else None
+        if bounds is None:
+            self.plotter.view_xy()
+            self.plotter.reset_camera()
+            self.plotter.render()
+            return
+        aspect = max(self.plotter.width(), 1) / max(self.plotter.height(), 1)
+        fit_camera(self.plotter, bounds, aspect)
+        self.plotter.render()
+
+    def resizeEvent(self, event: object) -> None:  # Qt API
+        super().resizeEvent(event)
+        if self.fit_bounds is not None:
+            self.reset_view(self.fit_bounds)
+
+    def render(self) -> None:
+        """Redraw now."""
+        self.plotter.render()
+
+    def close_plotter(self) -> None:
+        """Release the VTK render window (call before the widget is destroyed)."""
+        self.plotter.removeEventFilter(self._filter)
+        self.plotter.close()

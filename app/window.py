@@ -1,0 +1,916 @@
+"""The main window of ``quadmesh-app``: a view over :class:`quadmesh.result.MeshResult`.
+
+Plane view (left): the polygon being drawn and the layers of the last result.  Disk view
+(right): the tessellation T5 and one thick piece's disk construction; dragging there moves the
+picked point to the centre by a disk automorphism, clicks pick two points whose hyperbolic
+distance and geodesic are shown.  Docks: layers, drawing, mesh parameters and progress,
+information (counts, angles, timings, histogram).  All computing happens in ``quadmesh``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import QEventLoop, Qt, QTimer
+from PySide6.QtGui import QAction, QDoubleValidator, QKeySequence
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QDockWidget,
+    QDoubleSpinBox,
+    QFileDialog,
+    QFormLayout,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QMainWindow,
+    QMessageBox,
+    QProgressBar,
+    QPushButton,
+    QScrollArea,
+    QSpinBox,
+    QSplitter,
+    QVBoxLayout,
+    QWidget,
+)
+
+from quadmesh.errors import PolygonError, QuadmeshError
+from quadmesh.hyperbolic.geodesic import distance
+from quadmesh.hyperbolic.isometry import Isometry, disk_automorphism, disk_automorphism_inverse
+from quadmesh.polygon import validate_polygon
+from quadmesh.render import (
+    LAYER_COLORS,
+    LAYER_TITLES,
+    LayerGeometry,
+    LayerPart,
+    build_disk_layer,
+    build_layer,
+    geodesic_arc,
+    layer_names,
+    line_part,
+    points_part,
+    polygon_layer,
+    unit_circle_part,
+)
+from quadmesh.result import MeshOptions
+
+from .drawing import PolygonEditor
+from .histogram import AngleHistogram
+from .layers import DEFAULT_VISIBLE, LayerPanel
+from .views import LayerState, View2D
+from .worker import JobRunner
+
+__all__ = ["MainWindow"]
+
+_RESULT_PLANE = [n for n in layer_names("plane") if n != "polygon"]
+_RESULT_DISK = [n for n in layer_names("disk") if n != "tessellation"]
+
+# option name -> (label, kind, min, max, step, decimals)
+_OPTION_SPECS: dict[str, tuple[str, str, float, float, float, int]] = {
+    "n": ("n (half-side steps)", "int", 1, 12, 1, 0),
+    "max_n": ("max n (adaptive)", "int", 1, 16, 1, 0),
+    "depth_step": ("depth step δ", "float", 0.01, 1.0, 0.05, 3),
+    "inner_height": ("inner triangle h", "float", 0.05, 2.0, 0.05, 3),
+    "crosscut_ratio": ("crosscut ratio", "float", 4.0, 1e4, 4.0, 1),
+    "lemma_A": ("Lemma 2.2 factor A", "float", 1.01, 1e4, 1.0, 2),
+    "channel_delta": ("channel δ", "float", 0.001, 0.999, 0.01, 3),
+    "sector_ratio": ("sector ratio λ", "float", 0.01, 0.99, 0.05, 3),
+}
+
+
+_DISK_HINT = "drag: point → centre · click: pick 2 points"
+
+
+def _drag_threshold(view: View2D) -> float:
+    return 4.0 * view.pixel_size()
+
+
+class MainWindow(QMainWindow):
+    """quadmesh's desktop viewer.
+
+    Args:
+        auto_update: passed to the pyvistaqt interactors (tests use False and render
+            explicitly, GUI-STACK.md).
+        popups: show error message boxes (tests and scripted runs turn them off; the message
+            is always in the Mesh dock and the status bar as well).
+    """
+
+    def __init__(self, *, auto_update: bool = False, popups: bool = True) -> None:
+        super().__init__()
+        self.setWindowTitle("quadmesh — quadrilateral meshes with angles in [60°, 120°]")
+        self.resize(1280, 860)
+        self.popups = popups
+        self.editor = PolygonEditor()
+        self.result: Any = None
+        self.last_error: str | None = None
+        self.color_mode = "corner"
+        self.disk_piece = 0
+        self.picked: list[complex] = []
+        self._drag_vertex: int | None = None
+        self._selected: int | None = None
+        self._disk_press: tuple[complex, Isometry] | None = None
+        self._disk_dragged = False
+        self._job_polygon: tuple[complex, ...] | None = None
+        self.runner = JobRunner(self)
+        self.runner.progress.connect(self._on_progress)
+        self.runner.finished.connect(self._on_finished)
+        self.runner.failed.connect(self._on_failed)
+        self.runner.cancelled.connect(self._on_cancelled)
+        self.runner.idle.connect(self._on_idle)
+
+        # central views
+        self.plane = View2D("plane", auto_update=auto_update)
+        self.disk = View2D("disk", auto_update=auto_update)
+        disk_box = QWidget()
+        dl = QVBoxLayout(disk_box)
+        dl.setContentsMargins(0, 0, 0, 0)
+        bar = QHBoxLayout()
+        bar.addWidget(QLabel("thick piece"))
+        self.piece_spin = QSpinBox()
+        self.piece_spin.setRange(0, 0)
+        self.piece_spin.valueChanged.connect(self._on_piece_changed)
+        bar.addWidget(self.piece_spin)
+        self.reset_disk_btn = QPushButton("Centre 0")
+        self.reset_disk_btn.setToolTip("undo the disk automorphism and clear picked points")
+        self.reset_disk_btn.clicked.connect(self.reset_disk_transform)
+        bar.addWidget(self.reset_disk_btn)
+        self.distance_label = QLabel(_DISK_HINT)
+        self.distance_label.setObjectName("distance_label")
+        self.distance_label.setWordWrap(True)
+        self.distance_label.setMinimumWidth(80)
+        bar.addWidget(self.distance_label, 1)
+        dl.addLayout(bar)
+        dl.addWidget(self.disk, 1)
+        split = QSplitter(Qt.Horizontal)
+        split.addWidget(self.plane)
+        split.addWidget(disk_box)
+        split.setStretchFactor(0, 1)
+        split.setStretchFactor(1, 1)
+        split.setSizes([500, 500])
+        self.setCentralWidget(split)
+
+        self._build_docks()
+        self._build_menus()
+        self.warning_label = QLabel("")
+        self.warning_label.setObjectName("warning_label")
+        self.warning_label.setStyleSheet("color: #c00000; font-weight: bold")
+        self.statusBar().addPermanentWidget(self.warning_label)
+
+        self.plane.mouse.connect(self._on_plane_mouse)
+        self.disk.mouse.connect(self._on_disk_mouse)
+        self.disk.capture_left = True
+        self.disk.set_overlay("circle", LayerGeometry("unit_circle", "disk", [unit_circle_part()]))
+        self._draw_tessellation()
+        self.disk.reset_view((-1.08, 1.08, -1.08, 1.08), keep=True)
+        self.reset_plane_view()
+        self._refresh_polygon()
+
+    # ================================================================== UI construction
+    def _build_docks(self) -> None:
+        self.layer_panel = LayerPanel()
+        self.layer_panel.toggled.connect(self._on_layer_toggled)
+        self.layer_panel.color_changed.connect(
+            lambda v, n, c: (self._view(v).set_color(n, c), self._view(v).render())
+        )
+        self.layer_panel.opacity_changed.connect(
+            lambda v, n, o: (self._view(v).set_opacity(n, o), self._view(v).render())
+        )
+        self.layer_panel.color_mode_changed.connect(self.set_color_mode)
+        for view in (self.plane, self.disk):
+            for name in layer_names(view.view):
+                view.layers.setdefault(name, LayerState()).visible = DEFAULT_VISIBLE[name]
+        for name, color in LAYER_COLORS.items():
+            self.layer_panel.set_swatch(name, color)
+        self.layer_panel.setMaximumWidth(270)
+        self._add_dock("Layers", self.layer_panel, Qt.LeftDockWidgetArea)
+
+        # drawing
+        draw = QWidget()
+        f = QFormLayout(draw)
+        self.draw_check = QCheckBox("Draw / edit polygon")
+        self.draw_check.setToolTip(
+            "click: add a vertex · click the first vertex or double-click: close · "
+            "drag a vertex: move it · Delete: remove the selected vertex"
+        )
+        self.draw_check.toggled.connect(self.set_draw_mode)
+        f.addRow(self.draw_check)
+        self.snap_check = QCheckBox("Snap to grid")
+        self.snap_check.toggled.connect(self.set_snap)
+        self.grid_spin = QDoubleSpinBox()
+        self.grid_spin.setRange(0.001, 1000.0)
+        self.grid_spin.setDecimals(3)
+        self.grid_spin.setValue(self.editor.grid)
+        self.grid_spin.valueChanged.connect(lambda g: self.set_snap(self.editor.snap, g))
+        f.addRow(self.snap_check, self.grid_spin)
+        row = QHBoxLayout()
+        for text, slot in (
+            ("Undo", self.undo),
+            ("Redo", self.redo),
+            ("Delete", self.delete_selected),
+            ("Clear", self.clear_polygon),
+        ):
+            b = QPushButton(text)
+            b.clicked.connect(slot)
+            row.addWidget(b)
+        f.addRow(row)
+        draw.setMaximumWidth(270)
+        self._add_dock("Draw", draw, Qt.LeftDockWidgetArea)
+
+        # mesh parameters and progress
+        mesh = QWidget()
+        mf = QFormLayout(mesh)
+        self.option_widgets: dict[str, QSpinBox | QDoubleSpinBox | QCheckBox | QLineEdit] = {}
+        defaults = MeshOptions()
+        for name, (label, kind, lo, hi, step, dec) in _OPTION_SPECS.items():
+            if not hasattr(defaults, name):
+                continue
+            if kind == "int":
+                w: QSpinBox | QDoubleSpinBox = QSpinBox()
+                w.setRange(int(lo), int(hi))
+            else:
+                w = QDoubleSpinBox()
+                w.setDecimals(dec)
+                w.setRange(lo, hi)
+                w.setSingleStep(step)
+            w.setValue(getattr(defaults, name))
+            self.option_widgets[name] = w
+            mf.addRow(label, w)
+        self.tol_edit = QLineEdit(f"{defaults.conformal_tol:g}")
+        self.tol_edit.setValidator(QDoubleValidator(1e-16, 1e-2, 20))
+        self.option_widgets["conformal_tol"] = self.tol_edit
+        mf.addRow("conformal tolerance", self.tol_edit)
+        self.adaptive_check = QCheckBox("adaptive n")
+        self.adaptive_check.setChecked(defaults.adaptive)
+        self.option_widgets["adaptive"] = self.adaptive_check
+        mf.addRow(self.adaptive_check)
+        brow = QHBoxLayout()
+        self.mesh_button = QPushButton("Mesh")
+        self.mesh_button.setObjectName("mesh_button")
+        self.mesh_button.clicked.connect(self.start_mesh)
+        self.cancel_button = QPushButton("Cancel")
+        self.cancel_button.setEnabled(False)
+        self.cancel_button.clicked.connect(self.cancel_mesh)
+        brow.addWidget(self.mesh_button)
+        brow.addWidget(self.cancel_button)
+        mf.addRow(brow)
+        self.progress_bar = QProgressBar()
+        self.progress_bar.setRange(0, 1000)
+        self.progress_bar.setValue(0)
+        self.progress_bar.setFormat("idle")
+        mf.addRow(self.progress_bar)
+        self.error_label = QLabel("")
+        self.error_label.setWordWrap(True)
+        self.error_label.setStyleSheet("color: #c00000")
+        mf.addRow(self.error_label)
+        mesh.setMaximumWidth(290)
+        mesh_dock = self._add_dock("Mesh", mesh, Qt.RightDockWidgetArea)
+
+        # information
+        info = QWidget()
+        il = QVBoxLayout(info)
+        self.info_label = QLabel("no mesh yet")
+        self.info_label.setObjectName("info_label")
+        self.info_label.setTextFormat(Qt.RichText)
+        self.info_label.setWordWrap(True)
+        self.info_label.setAlignment(Qt.AlignTop | Qt.AlignLeft)
+        self.info_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        il.addWidget(self.info_label)
+        il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
+        self.histogram = AngleHistogram()
+        il.addWidget(self.histogram)
+        il.addStretch(1)
+        scroll = QScrollArea()
+        scroll.setWidget(info)
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QScrollArea.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
+        scroll.setMaximumWidth(300)
+        info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
+        self.resizeDocks([mesh_dock, info_dock], [300, 700], Qt.Vertical)
+
+    def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
+        d = QDockWidget(title, self)
+        d.setObjectName(f"dock_{title.lower()}")
+        d.setWidget(widget)
+        d.setFeatures(QDockWidget.DockWidgetMovable | QDockWidget.DockWidgetFloatable)
+        self.addDockWidget(area, d)
+        return d
+
+    def _build_menus(self) -> None:
+        mb = self.menuBar()
+        fm = mb.addMenu("&File")
+        self._action(fm, "&Open polygon…", self._open_dialog, QKeySequence.Open)
+        self._action(fm, "&Save polygon…", self._save_dialog, QKeySequence.Save)
+        self._action(fm, "&Export mesh…", self._export_dialog, "Ctrl+E")
+        self._action(fm, "Save &window screenshot…", self._screenshot_dialog, "Ctrl+P")
+        fm.addSeparator()
+        self._action(fm, "&Quit", self.close, QKeySequence.Quit)
+        em = mb.addMenu("&Edit")
+        self._action(em, "&Undo", self.undo, QKeySequence.Undo)
+        self._action(em, "&Redo", self.redo, QKeySequence.Redo)
+        self._action(em, "&Delete vertex", self.delete_selected, QKeySequence.Delete)
+        self._action(em, "&Clear polygon", self.clear_polygon)
+        self.examples_menu = mb.addMenu("E&xamples")
+        self._fill_examples_menu()
+        vm = mb.addMenu("&View")
+        self._action(vm, "&Reset plane view", self.reset_plane_view, "R")
+        self._action(vm, "Reset &disk view", self.reset_disk_transform)
+        mm = mb.addMenu("&Mesh")
+        self._action(mm, "&Mesh polygon", self.start_mesh, "Ctrl+M")
+        self._action(mm, "&Cancel", self.cancel_mesh, "Escape")
+
+    def _action(self, menu: Any, text: str, slot: Any, shortcut: Any = None) -> QAction:
+        a = QAction(text, self)
+        if shortcut is not None:
+            a.setShortcut(QKeySequence(shortcut))
+        a.triggered.connect(lambda _=False: slot())
+        menu.addAction(a)
+        return a
+
+    def _fill_examples_menu(self) -> None:
+        try:
+            from quadmesh.examples import example_names
+        except ImportError as exc:
+            a = self.examples_menu.addAction(f"(bundled examples unavailable: {exc})")
+            a.setEnabled(False)
+            return
+        for name in example_names():
+            a = QAction(name, self)
+            a.triggered.connect(lambda _=False, n=name: self.load_example(n))
+            self.examples_menu.addAction(a)
+
+    def _put(self, view: View2D, name: str, geometry: LayerGeometry | None) -> None:
+        """Set a layer's geometry and show its flat colour on the layer panel's swatch."""
+        view.set_layer(name, geometry)
+        st = view.layers[name]
+        if geometry is not None and st.color is None:
+            flat = [p.color for p in geometry.parts if p.scalars is None and p.color]
+            if flat and name in LAYER_COLORS:
+                self.layer_panel.set_swatch(name, LAYER_COLORS[name])
+
+    def _view(self, view: str) -> View2D:
+        return self.plane if view == "plane" else self.disk
+
+    # ================================================================== polygon input
+    def set_polygon(self, z: np.ndarray) -> None:
+        """Replace the drawing by a polygon and fit the view to it.  A valid polygon is taken
+        in its normalised (counter-clockwise) form; an invalid one is kept as it is, with the
+        warning shown, so that it can be repaired by editing."""
+        try:
+            z = validate_polygon(z).z
+        except PolygonError:
+            z = np.asarray(z, dtype=np.complex128).ravel()
+        self.editor.set_polygon(z)
+        self._polygon_changed()
+        self.reset_plane_view()
+
+    def load_example(self, name: str) -> None:
+        """Load a bundled example polygon (Examples menu)."""
+        from quadmesh.examples import load_example
+
+        self.set_polygon(_points_of(load_example(name)))
+        self.statusBar().showMessage(f"example {name!r} loaded", 5000)
+
+    def open_polygon(self, path: str | Path) -> None:
+        """Read a polygon file (JSON, CSV/TXT, GeoJSON, SVG path) with quadmesh.io."""
+        from quadmesh.io import read_polygon
+
+        vertices, notes = read_polygon(path)
+        self.set_polygon(_points_of(vertices))
+        self.statusBar().showMessage("; ".join([f"opened {path}", *notes]), 8000)
+
+    def save_polygon(self, path: str | Path) -> None:
+        """Write the current (closed, valid) polygon with quadmesh.io."""
+        from quadmesh.io import write_polygon
+
+        if not self.editor.closed:
+            raise QuadmeshError("close the polygon before saving it", stage="io")
+        write_polygon(path, validate_polygon(self.editor.z).vertices)
+
+    # ================================================================== drawing
+    def set_draw_mode(self, on: bool) -> None:
+        """In draw mode the left button draws and edits; otherwise it pans."""
+        if self.draw_check.isChecked() != on:
+            self.draw_check.setChecked(on)
+            return
+        self.plane.capture_left = on
+        if on:
+            self.statusBar().showMessage(self.draw_check.toolTip(), 15000)
+        self._rubber_band(None)
+        self._refresh_polygon()
+
+    def set_snap(self, on: bool, grid: float | None = None) -> None:
+        """Snap new and moved vertices to a grid of the given spacing; show the grid lines
+        (at most 200 of them, over the visible part of the plane) while snapping is on."""
+        self.editor.snap = on
+        if grid is not None:
+            self.editor.grid = grid
+        geo = None
+        if on:
+            g = self.editor.grid
+            cam = self.plane.plotter.camera
+            cx, cy, _ = cam.focal_point
+            hh = cam.parallel_scale
+            hw = hh * self.plane.plotter.width() / max(self.plane.plotter.height(), 1)
+            i0, i1 = int(np.floor((cx - hw) / g)), int(np.ceil((cx + hw) / g))
+            j0, j1 = int(np.floor((cy - hh) / g)), int(np.ceil((cy + hh) / g))
+            if (i1 - i0) + (j1 - j0) <= 200:
+                xs, ys = np.arange(i0, i1 + 1) * g, np.arange(j0, j1 + 1) * g
+                lines = [np.array([x + 1j * ys[0], x + 1j * ys[-1]]) for x in xs]
+                lines += [np.array([xs[0] + 1j * y, xs[-1] + 1j * y]) for y in ys]
+                geo = LayerGeometry(
+                    "grid", "plane", [line_part(lines, color="#d8d8d8", label="grid")]
+                )
+        self.plane.set_overlay("grid", geo)
+        self.plane.render()
+
+    def _on_plane_mouse(self, kind: str, w: complex, modifiers: int) -> None:
+        tol = 8.0 * self.plane.pixel_size()
+        ed = self.editor
+        if kind == "press":
+            i = ed.nearest(w, tol)
+            if i == 0 and not ed.closed and len(ed.points) >= 3:
+                ed.close()
+                self._selected = None
+            elif i is not None:
+                self._selected = i
+                self._drag_vertex = i
+                ed.begin_move()
+            elif ed.add(w):
+                self._selected = len(ed.points) - 1
+            else:
+                return
+            self._polygon_changed()
+        elif kind == "drag" and self._drag_vertex is not None:
+            ed.move(self._drag_vertex, w)
+            self._polygon_changed(light=True)
+        elif kind == "release" and self._drag_vertex is not None:
+            ed.end_move()
+            self._drag_vertex = None
+            self._polygon_changed()
+        elif kind == "dblclick":
+            if ed.close():
+                self._selected = None
+                self._polygon_changed()
+        elif kind == "hover":
+            self._rubber_band(w)
+
+    def _rubber_band(self, w: complex | None) -> None:
+        """Thin line from the last vertex to the cursor while an open polygon is drawn."""
+        ed = self.editor
+        if w is None or ed.closed or not ed.points or not self.draw_check.isChecked():
+            if "rubber" in self.plane.overlays:
+                self.plane.set_overlay("rubber", None)
+                self.plane.render()
+            return
+        part = line_part(
+            [np.array([ed.points[-1], ed.snapped(w)])], color="#555555", label="rubber"
+        )
+        self.plane.set_overlay("rubber", LayerGeometry("rubber", "plane", [part]))
+        self.plane.render()
+
+    def undo(self) -> None:
+        """Undo the last drawing edit."""
+        if self.editor.undo():
+            self._selected = None
+            self._polygon_changed()
+
+    def redo(self) -> None:
+        """Redo the last undone drawing edit."""
+        if self.editor.redo():
+            self._selected = None
+            self._polygon_changed()
+
+    def delete_selected(self) -> None:
+        """Delete the selected vertex (the last one clicked or added)."""
+        if self._selected is not None and self.editor.delete(self._selected):
+            self._selected = None
+            self._polygon_changed()
+
+    def clear_polygon(self) -> None:
+        """Remove the whole drawing (undoable)."""
+        self.editor.clear()
+        self._selected = None
+        self._polygon_changed()
+
+    def _polygon_changed(self, light: bool = False) -> None:
+        if self.result is not None and self._result_polygon_differs():
+            self._drop_result("the polygon changed; mesh again")
+        self._refresh_polygon()
+
+    def _result_polygon_differs(self) -> bool:
+        if not self.editor.closed:
+            return True
+        rz = np.asarray(self.result.polygon.z)
+        z = self.editor.z
+        return rz.shape != z.shape or not np.allclose(np.sort_complex(rz), np.sort_complex(z))
+
+    def _refresh_polygon(self) -> None:
+        ed = self.editor
+        problem = ed.problem()
+        self.warning_label.setText(f"⚠ {problem}" if problem else "")
+        color = "#c00000" if problem else "black"
+        self._put(self.plane, "polygon", polygon_layer(ed.z, closed=ed.closed, color=color))
+        sel = None
+        if (
+            self._selected is not None
+            and self._selected < len(ed.points)
+            and self.draw_check.isChecked()
+        ):
+            sel = LayerGeometry(
+                "selection",
+                "plane",
+                [
+                    LayerPart(
+                        polygon_layer(ed.z[[self._selected]], closed=False).part("vertices").mesh,
+                        color="#ff7f0e",
+                        style="points",
+                        point_size=14.0,
+                        label="selected",
+                    )
+                ],
+            )
+        self.plane.set_overlay("selection", sel)
+        if ed.closed:
+            self.plane.set_overlay("rubber", None)
+        self.mesh_button.setEnabled(ed.closed and problem is None and not self.runner.busy)
+        self.plane.render()
+
+    # ================================================================== meshing
+    def mesh_options(self) -> MeshOptions:
+        """MeshOptions from the parameter controls (ValueError if they are inconsistent)."""
+        kw: dict[str, Any] = {}
+        for name, w in self.option_widgets.items():
+            if isinstance(w, QCheckBox):
+                kw[name] = w.isChecked()
+            elif isinstance(w, QLineEdit):
+                kw[name] = float(w.text())
+            else:
+                kw[name] = w.value()
+        kw["n"] = int(kw["n"])
+        kw["max_n"] = int(kw["max_n"])
+        valid = {f.name for f in dataclasses.fields(MeshOptions)}
+        return MeshOptions(**{k: v for k, v in kw.items() if k in valid})
+
+    def start_mesh(self, job: Any = None) -> bool:
+        """Start meshing the current polygon in the worker thread (or run ``job(progress,
+        cancel)`` instead, which must return a MeshResult).  Returns False if it cannot start."""
+        if self.runner.busy:
+            return False
+        if not self.editor.closed or self.editor.problem():
+            self._show_error(self.editor.problem() or "close the polygon first")
+            return False
+        try:
+            options = self.mesh_options()
+        except ValueError as exc:
+            self._show_error(f"invalid parameters: {exc}")
+            return False
+        z = self.editor.z.copy()
+        if job is None:
+            from quadmesh.pipeline import mesh_polygon
+
+            def job(progress: Any, cancel: Any) -> Any:
+                return mesh_polygon(z, options, progress=progress, cancel=cancel)
+
+        self._job_polygon = tuple(self.editor.points)
+        self.last_error = None
+        self.error_label.setText("")
+        self.mesh_button.setEnabled(False)
+        self.cancel_button.setEnabled(True)
+        self.progress_bar.setValue(0)
+        self.progress_bar.setFormat("starting… %p%")
+        self.runner.start(job)
+        return True
+
+    def cancel_mesh(self) -> None:
+        """Ask the running mesher to stop."""
+        if self.runner.busy:
+            self.progress_bar.setFormat("cancelling…")
+            self.runner.cancel()
+
+    def wait_for_mesh(self, timeout_ms: int = 600000) -> bool:
+        """Process events until the running job ends; True if it ended in time."""
+        if not self.runner.busy:
+            return True
+        loop = QEventLoop()
+        self.runner.idle.connect(loop.quit)
+        QTimer.singleShot(timeout_ms, loop.quit)
+        loop.exec()
+        self.runner.idle.disconnect(loop.quit)
+        return not self.runner.busy
+
+    def _on_progress(self, stage: str, fraction: float) -> None:
+        self.progress_bar.setValue(round(1000 * min(max(fraction, 0.0), 1.0)))
+        self.progress_bar.setFormat(f"{stage} %p%")
+
+    def _on_finished(self, result: Any, seconds: float) -> None:
+        if self._job_polygon is not None and tuple(self.editor.points) != self._job_polygon:
+            self.statusBar().showMessage("polygon edited while meshing; result discarded", 8000)
+            return
+        self.progress_bar.setValue(1000)
+        self.progress_bar.setFormat(f"done in {seconds:.2f} s")
+        self.set_result(result)
+
+    def _on_failed(self, message: str) -> None:
+        self.progress_bar.setFormat("failed")
+        self._show_error(message)
+
+    def _on_cancelled(self) -> None:
+        self.progress_bar.setValue(0)
+        self.progress_bar.setFormat("cancelled")
+        self.statusBar().showMessage("meshing cancelled", 5000)
+
+    def _on_idle(self) -> None:
+        self.cancel_button.setEnabled(False)
+        self._refresh_polygon()
+
+    def _show_error(self, message: str) -> None:
+        self.last_error = message
+        self.error_label.setText(message)
+        self.statusBar().showMessage(message, 15000)
+        if self.popups:
+            box = QMessageBox(QMessageBox.Warning, "quadmesh", message, parent=self)
+            box.setAttribute(Qt.WA_DeleteOnClose)
+            box.open()
+
+    # ================================================================== result display
+    def set_result(self, result: Any) -> None:
+        """Show a MeshResult: build every layer, the information panel and the histogram."""
+        self.result = result
+        self.piece_spin.blockSignals(True)
+        self.piece_spin.setRange(0, max(len(result.pieces) - 1, 0))
+        self.piece_spin.setValue(min(self.disk_piece, max(len(result.pieces) - 1, 0)))
+        self.disk_piece = self.piece_spin.value()
+        self.piece_spin.blockSignals(False)
+        problems = []
+        for name in _RESULT_PLANE:
+            try:
+                self._put(self.plane, name, build_layer(result, name, color_by=self.color_mode))
+            except (AttributeError, TypeError, ValueError, IndexError, KeyError) as exc:
+                self._put(self.plane, name, None)
+                problems.append(f"{LAYER_TITLES[name]}: {exc}")
+        self._draw_disk_result()
+        self._update_info(problems)
+        if self.plane.fit_bounds is not None:
+            self.reset_plane_view()  # still fitted: make room for the colour bar
+        self.plane.render()
+        self.disk.render()
+
+    def _draw_disk_result(self) -> None:
+        r = self.result
+        for name in _RESULT_DISK:
+            if r is None or not r.pieces:
+                self._put(self.disk, name, None)
+                continue
+            self._put(self.disk, name, build_layer(r, name, piece=self.disk_piece))
+
+    def _drop_result(self, why: str) -> None:
+        self.result = None
+        self.plane.clear_layers(_RESULT_PLANE)
+        self.disk.clear_layers(_RESULT_DISK)
+        self.info_label.setText(why)
+        self.histogram.clear()
+        self.progress_bar.setValue(0)
+        self.progress_bar.setFormat("idle")
+
+    def set_color_mode(self, mode: str) -> None:
+        """Colour the final mesh by ``"corner"`` angle or by each quad's ``"worst"`` deviation."""
+        self.color_mode = mode
+        if self.result is not None:
+            self._put(
+                self.plane, "final_mesh", build_layer(self.result, "final_mesh", color_by=mode)
+            )
+            self.plane.render()
+
+    def _on_piece_changed(self, k: int) -> None:
+        self.disk_piece = k
+        self._draw_disk_result()
+        self.disk.render()
+
+    def _update_info(self, problems: list[str]) -> None:
+        r = self.result
+        q = r.quality
+        rows = [
+            ("quads", f"{q.n_quads}"),
+            ("vertices", f"{q.n_vertices}"),
+            ("polygon vertices n", f"{r.polygon.n}"),
+            ("quads / n", f"{q.n_quads / max(r.polygon.n, 1):.1f}"),
+            ("min new angle", f"{q.min_angle:.3f}°"),
+            ("max new angle", f"{q.max_angle:.3f}°"),
+            ("outside [60°,120°]", f"{q.n_angles_outside}"),
+            (
+                "thick pieces (n used)",
+                f"{len(r.pieces)} (" + ", ".join(str(p.n_used) for p in r.pieces) + ")",
+            ),
+            ("thin parts", f"{len(r.thin)}"),
+        ]
+        if q.n_original:
+            rows.append(
+                (
+                    "original angles < 60° kept",
+                    f"{q.n_original} (smallest {q.min_original_angle:.2f}°)",
+                )
+            )
+        ver = getattr(r.verification, "ok", None)
+        if ver is not None:
+            rows.append(("verified", "yes" if ver else "NO"))
+        total = sum(r.timings.values())
+        html = "<table>" + "".join(f"<tr><td>{k}</td><td><b>{v}</b></td></tr>" for k, v in rows)
+        html += "</table><p><b>time per stage</b></p><table>"
+        html += "".join(
+            f"<tr><td>{k}</td><td align='right'>{v:.3f} s</td></tr>" for k, v in r.timings.items()
+        )
+        html += f"<tr><td><b>total</b></td><td align='right'><b>{total:.3f} s</b></td></tr></table>"
+        if problems:
+            html += (
+                "<p style='color:#c00000'>layers not drawn:<br>" + "<br>".join(problems) + "</p>"
+            )
+        self.info_label.setText(html)
+        self.histogram.set_data(q.histogram, q.bin_edges)
+
+    # ================================================================== layers
+    def _on_layer_toggled(self, view: str, name: str, on: bool) -> None:
+        v = self._view(view)
+        v.set_visible(name, on)
+        v.render()
+
+    def set_visible_layers(self, names: list[str]) -> None:
+        """Show exactly these layers (both views); ValueError for unknown names."""
+        self.layer_panel.set_visible_layers(names)
+
+    def reset_plane_view(self) -> None:
+        """Fit the plane view to the polygon (or the unit square when there is none)."""
+        z = self.editor.z
+        if z.size >= 2:
+            pad = 0.05 * max(np.ptp(z.real), np.ptp(z.imag), 1e-9)
+            low = pad
+            if self.result is not None:  # room for the horizontal colour bar at the bottom
+                aspect = self.plane.plotter.height() / max(self.plane.plotter.width(), 1)
+                low = 0.2 * max(np.ptp(z.imag), np.ptp(z.real) * aspect)
+            self.plane.reset_view(
+                (z.real.min() - pad, z.real.max() + pad, z.imag.min() - low, z.imag.max() + pad),
+                keep=True,
+            )
+        else:
+            self.plane.reset_view((-1.0, 1.0, -1.0, 1.0), keep=True)
+
+    # ================================================================== disk teaching view
+    def _draw_tessellation(self, center: complex = 0j) -> None:
+        self._put(
+            self.disk,
+            "tessellation",
+            build_disk_layer("tessellation", tessellation_depth=5, tessellation_center=center),
+        )
+
+    def _on_disk_mouse(self, kind: str, w: complex, modifiers: int) -> None:
+        g = self.disk.transform if self.disk.transform is not None else Isometry.identity()
+        if kind == "press":
+            if abs(w) >= 0.995:
+                return
+            self._disk_press = (w, g)
+            self._disk_dragged = False
+        elif kind == "drag" and self._disk_press is not None:
+            a, g0 = self._disk_press
+            if not self._disk_dragged and abs(w - a) < _drag_threshold(self.disk):
+                return
+            self._disk_dragged = True
+            b = w if abs(w) < 0.995 else 0.995 * w / abs(w)
+            self.set_disk_transform(disk_automorphism_inverse(b) @ disk_automorphism(a) @ g0)
+        elif kind == "release" and self._disk_press is not None:
+            a, g0 = self._disk_press
+            self._disk_press = None
+            if self._disk_dragged:
+                # refill the tessellation around the new centre
+                self._draw_tessellation(complex(self.disk.transform.inverse()(0j)))
+                self.disk.set_transform(self.disk.transform)
+                self.disk.render()
+            else:
+                self.pick_disk_point(complex(g0.inverse()(a)))
+        elif kind == "dblclick" and abs(w) < 0.995:
+            self.set_disk_transform(disk_automorphism(w) @ g)
+
+    def set_disk_transform(self, g: Isometry | None) -> None:
+        """Show the disk view moved by the isometry ``g`` (None: identity)."""
+        self.disk.set_transform(g)
+        self._draw_picked()
+        self.disk.render()
+
+    def reset_disk_transform(self) -> None:
+        """Back to the identity; forget the picked points."""
+        self.picked = []
+        self._draw_tessellation()
+        self.set_disk_transform(None)
+        self.distance_label.setText(_DISK_HINT)
+
+    def pick_disk_point(self, z: complex) -> None:
+        """Pick a point (disk coordinates before the automorphism); two picks show their
+        hyperbolic distance ρ (metric 2|dz|/(1−|z|²)) and the geodesic between them."""
+        if len(self.picked) >= 2:
+            self.picked = []
+        self.picked.append(complex(z))
+        if len(self.picked) == 2:
+            d = float(distance(self.picked[0], self.picked[1]))
+            self.distance_label.setText(f"hyperbolic distance ρ = {d:.6f}")
+        else:
+            self.distance_label.setText("picked 1 point; click a second one")
+        self._draw_picked()
+        self.disk.render()
+
+    def _draw_picked(self) -> None:
+        if not self.picked:
+            self.disk.set_overlay("picked", None)
+            return
+        g = self.disk.transform
+        pts = np.array(self.picked)
+        shown = g(pts) if g is not None else pts
+        parts = [points_part(shown, color="#ff7f0e", point_size=13.0, label="picked")]
+        if len(shown) == 2:
+            arc = geodesic_arc(shown[0], shown[1], 64)
+            parts.insert(0, line_part([arc], color="#ff7f0e", line_width=3.0, label="geodesic"))
+        self.disk.set_overlay("picked", LayerGeometry("picked", "disk", parts))
+
+    # ================================================================== output
+    def export_mesh(self, path: str | Path) -> None:
+        """Write the final mesh with quadmesh.io (format from the suffix)."""
+        from quadmesh.io import write_mesh
+
+        if self.result is None:
+            raise QuadmeshError("there is no mesh to export; mesh the polygon first", stage="io")
+        write_mesh(path, self.result.mesh)
+
+    def save_screenshot(self, path: str | Path) -> None:
+        """Save a PNG of the whole window (views included)."""
+        self.plane.render()
+        self.disk.render()
+        if not self.grab().save(str(path)):
+            raise OSError(f"could not write {path}")
+
+    def _file_dialog(self, save: bool, title: str, filt: str) -> str:
+        fn = QFileDialog.getSaveFileName if save else QFileDialog.getOpenFileName
+        path, _ = fn(self, title, "", filt)
+        return path
+
+    def _guarded(self, what: str, fn: Any, *args: Any) -> None:
+        try:
+            fn(*args)
+        except (QuadmeshError, OSError, ValueError) as exc:
+            self._show_error(f"{what} failed: {exc}")
+
+    def _open_dialog(self) -> None:
+        p = self._file_dialog(
+            False, "Open polygon", "Polygons (*.json *.geojson *.csv *.txt *.svg);;All files (*)"
+        )
+        if p:
+            self._guarded("opening the polygon", self.open_polygon, p)
+
+    def _save_dialog(self) -> None:
+        p = self._file_dialog(True, "Save polygon", "JSON (*.json)")
+        if p:
+            self._guarded("saving the polygon", self.save_polygon, p)
+
+    def _export_dialog(self) -> None:
+        p = self._file_dialog(
+            True, "Export mesh", "JSON (*.json);;VTK (*.vtk);;Gmsh (*.msh);;Wavefront (*.obj)"
+        )
+        if p:
+            self._guarded("exporting the mesh", self.export_mesh, p)
+
+    def _screenshot_dialog(self) -> None:
+        p = self._file_dialog(True, "Save screenshot", "PNG (*.png)")
+        if p:
+            self._guarded("saving the screenshot", self.save_screenshot, p)
+
+    # ================================================================== shutdown
+    def keyPressEvent(self, event: Any) -> None:
+        if event.key() in (Qt.Key_Delete, Qt.Key_Backspace):
+            self.delete_selected()
+            return
+        super().keyPressEvent(event)
+
+    def closeEvent(self, event: Any) -> None:
+        self.shutdown()
+        super().closeEvent(event)
+
+    def shutdown(self) -> None:
+        """Stop the worker and release both render windows (idempotent)."""
+        if self.runner.busy:
+            self.runner.cancel()
+            self.runner.wait(30000)
+        for v in (self.plane, self.disk):
+            if not getattr(v, "_closed", False):
+                v.close_plotter()
+                v._closed = True
+
+
+def _points_of(obj: Any) -> np.ndarray:
+    """Complex vertices of whatever quadmesh.io / quadmesh.examples returned."""
+    z = getattr(obj, "z", None)
+    if z is not None:
+        return np.asarray(z, dtype=np.complex128)
+    arr = np.asarray(obj)
+    if np.iscomplexobj(arr):
+        return arr.astype(np.complex128).ravel()
+    arr = np.asarray(arr, dtype=np.float64)
+    return arr[:, 0] + 1j * arr[:, 1]
