@@ -42,6 +42,8 @@ CancelCallback = Callable[[], bool]
 
 #: n values tried by the adaptive loop, in order (MeshOptions.adaptive).
 ADAPTIVE_N = (2, 3, 4, 6, 8)
+#: The adaptive loop halves the Carleson depth step down to this value.
+MIN_DEPTH_STEP = 0.125
 ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
 #: Slack on the angle bounds for rounding: angles that are exactly 60° or 120° by
 #: construction (Mesh 1, Mesh 2, the spokes of T_i) come out within ~1e-10 of them.
@@ -115,39 +117,66 @@ def _choose_arcs(
     (half-width ≈ √A·φ ≤ g/2) stays clear of the neighbours. Where the residual offset is
     large the conformal collar (:mod:`quadmesh.thin.collar`) straightens the crosscut.
     """
-    from .disk.tessellation import minimal_containing_arc
-
     two_pi = 2 * np.pi
     sq = np.sqrt(options.lemma_A)
     target = np.maximum(gap / options.crosscut_ratio, 1.2 * sq * half)
-    sizes = np.geomspace(0.25, 4.0, 9)
-    offsets = np.array([-0.4, 0.0, 0.4])
-    ss, oo = np.meshgrid(sizes, offsets, indexing="ij")
-    ss, oo = ss.ravel(), oo.ravel()
-    hw = np.maximum(target[:, None] * ss[None, :], 1.05 * half[:, None])
-    mid = centre[:, None] + oo[None, :] * (hw - half[:, None])
-    js, jl, _, _ = minimal_containing_arc(np.mod(mid - hw, two_pi).ravel(), (2 * hw).ravel())
-    js = js.reshape(hw.shape)
-    jl = jl.reshape(hw.shape)
-    phi = jl / 2
-    jc = js + phi
-    dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
-    off = dist / phi
-    ratio = phi / gap[:, None]
-    bad = (ratio > 0.125) | (dist + half[:, None] > 0.9 * phi)
-    score = off + 0.01 * np.abs(np.log(ratio * options.crosscut_ratio)) + 10.0 * bad
-    best = np.argmin(score, axis=1)
-    rows = np.arange(centre.size)
-    if np.any(bad[rows, best]):
-        j = int(np.flatnonzero(bad[rows, best])[0])
+    # a cheap first pass (3 sizes, centred), then the full candidate set where it is poor
+    quick = _candidate_arcs(centre, half, gap, target, options, np.array([0.25, 0.5, 1.0]), [0.0])
+    redo = np.flatnonzero(quick[2] > 0.35)
+    if redo.size:
+        full = _candidate_arcs(
+            centre[redo],
+            half[redo],
+            gap[redo],
+            target[redo],
+            options,
+            np.geomspace(1.0 / 16.0, 4.0, 13),
+            [-0.4, 0.0, 0.4],
+        )
+        better = full[2] < quick[2][redo]
+        for q, f in zip(quick, full):
+            q[redo[better]] = f[better]
+    jc, phi, score = quick
+    if np.any(score >= 10.0):
+        j = int(np.flatnonzero(score >= 10.0)[0])
         raise DiskConstructionError(
             f"no tessellation arc fits around prevertex cluster {j} (core half-width "
             f"{half[j]:.3g} rad, gap to its neighbours {gap[j]:.3g} rad): the thick piece is "
             "too crowded there"
         )
-    phi_b = phi[rows, best]
-    half_i = phi_b / (1.02 * sq)
-    return np.column_stack([np.mod(jc[rows, best] - half_i, two_pi), 2 * half_i])
+    half_i = phi / (1.02 * sq)
+    return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i])
+
+
+def _candidate_arcs(
+    centre: np.ndarray,
+    half: np.ndarray,
+    gap: np.ndarray,
+    target: np.ndarray,
+    options: MeshOptions,
+    sizes: np.ndarray,
+    offsets: list[float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Best I5 arc per core among the minimal containing arcs of trial arcs (sizes × target
+    half-widths, shifted by offsets): returns its centre, half-width and score (relative
+    offset of its centre from the core's centre, +10 when inadmissible)."""
+    from .disk.tessellation import minimal_containing_arc
+
+    ss, oo = np.meshgrid(sizes, np.asarray(offsets, dtype=float), indexing="ij")
+    ss, oo = ss.ravel(), oo.ravel()
+    hw = np.minimum(target[:, None] * ss[None, :], gap[:, None] / 10.0)
+    hw = np.maximum(hw, 1.05 * half[:, None])
+    mid = centre[:, None] + oo[None, :] * (hw - half[:, None])
+    js, jl, _, _ = minimal_containing_arc(np.mod(mid - hw, 2 * np.pi).ravel(), (2 * hw).ravel())
+    phi = jl.reshape(hw.shape) / 2
+    jc = js.reshape(hw.shape) + phi
+    dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
+    ratio = phi / gap[:, None]
+    bad = (ratio > 0.125) | (dist + half[:, None] > 0.9 * phi)
+    score = dist / phi + 0.01 * np.abs(np.log(ratio * options.crosscut_ratio)) + 10.0 * bad
+    best = np.argmin(score, axis=1)
+    rows = np.arange(centre.size)
+    return jc[rows, best], phi[rows, best], score[rows, best]
 
 
 def vertex_intervals(theta: np.ndarray, options: MeshOptions) -> np.ndarray:
@@ -310,7 +339,9 @@ def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _P
     return _Piece(piece.index, np.asarray(piece.z), fmap, theta, intervals, owners, stretches)
 
 
-def _disk_and_image(pd: _Piece, n: int, options: MeshOptions, timings: dict[str, float]):
+def _disk_and_image(
+    pd: _Piece, n: int, step: float, options: MeshOptions, timings: dict[str, float]
+):
     """Lemma 2.2 region and its mesh for one piece, pushed forward (paper §7)."""
     from .disk import disk_mesh
 
@@ -320,7 +351,7 @@ def _disk_and_image(pd: _Piece, n: int, options: MeshOptions, timings: dict[str,
             pd.intervals,
             A=options.lemma_A,
             n=n,
-            depth_step=options.depth_step,
+            depth_step=step,
             inner_height=options.inner_height,
             depth_growth=options.depth_growth,
         )
@@ -498,33 +529,44 @@ def mesh_polygon(
         report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
         work.append(_prepare_piece(piece, options, timings))
 
-    # the same n everywhere: both sides of a channel must carry the same vertex count
-    ns = [n for n in ADAPTIVE_N if options.n <= n <= options.max_n]
-    if not options.adaptive or not ns:
-        ns = [options.n]
+    # One (n, depth step) for all pieces: both sides of a channel must carry the same
+    # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
+    # converge like O(1/n)); Carleson images out of range -> halve the depth step.
+    n, step = options.n, options.depth_step
     fixes: list[str] = []
-    for n in ns:
+    while True:
         disks = []
-        worst = (ANGLE_MIN, ANGLE_MAX, -1)
+        bad_kind: dict[str, tuple[float, float, int]] = {}
         for i, pd in enumerate(work):
             report("disk mesh", 0.4 + 0.3 * i / len(work))
-            disk, image = _disk_and_image(pd, n, options, timings)
+            disk, image = _disk_and_image(pd, n, step, options, timings)
             disks.append((disk, image))
             ang = quad_angles_deg(image, disk.quads)
-            lo, hi = float(ang.min()), float(ang.max())
-            if lo < worst[0] - ANGLE_TOL or hi > worst[1] + ANGLE_TOL:
-                worst = (min(lo, worst[0]), max(hi, worst[1]), pd.index)
-        if worst[2] < 0:
+            out = (ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)
+            for kind in np.unique(disk.kind[out.any(axis=1)]):
+                sel = ang[disk.kind == kind]
+                lo, hi = float(sel.min()), float(sel.max())
+                old = bad_kind.get(str(kind), (ANGLE_MIN, ANGLE_MAX, pd.index))
+                bad_kind[str(kind)] = (min(lo, old[0]), max(hi, old[1]), pd.index)
+        if not bad_kind:
             break
-        fixes.append(
-            f"n = {n}: pushed-forward angles [{worst[0]:.2f}, {worst[1]:.2f}] in thick piece "
-            f"{worst[2]}; raising n"
+        what = ", ".join(
+            f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
         )
-    else:
-        raise DiskConstructionError(
-            f"{fixes[-1].split('; ')[0]}: no n up to {ns[-1]} keeps the images in "
-            "[60°, 120°] (the conformal map distorts the disk mesh too much)"
-        )
+        if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
+            n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+            fixes.append(f"{what}: n raised to {n}")
+        elif options.adaptive and step > MIN_DEPTH_STEP:
+            step = max(step / 2, MIN_DEPTH_STEP)
+            fixes.append(f"{what}: depth step lowered to {step:g}")
+        elif options.adaptive and n < options.max_n:
+            n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+            fixes.append(f"{what}: n raised to {n}")
+        else:
+            raise DiskConstructionError(
+                f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
+                f"step {step:g}); the conformal map distorts the disk mesh too much"
+            )
 
     asm = _Assembler()
     pieces: list[ThickPieceResult] = []
@@ -556,6 +598,7 @@ def mesh_polygon(
                 image=image,
                 n_used=n,
                 fixes=tuple(fixes),
+                depth_step_used=step,
             )
         )
 

@@ -28,7 +28,10 @@ class MeshOptions:
             pentagon side and Carleson top edge). n = 2 is the smallest value whose disk
             chord angles stay in [60°, 120°]; the adaptive loop raises it per thick piece.
         depth_step: spacing of the global depth sequence d_k shared by Carleson
-            quadrilaterals and triangles (Lemmas 5.1, 6.1; DISK.md §5–§6).
+            quadrilaterals and triangles (Lemmas 5.1, 6.1; DISK.md §5–§6). 1.0 keeps the
+            pushed-forward angles in range on the bundled examples at a third of the quads of
+            the notes' 0.25; where a Carleson image angle leaves [60°, 120°] the adaptive loop
+            halves it (down to 0.125).
         depth_growth: ratio of consecutive depth steps below the triangle landmark D5
             (1 = uniform). The deep rows are thin strips near 90°, so 2 halves their
             number at no measurable cost in angle (measured in the model triangle).
@@ -36,7 +39,8 @@ class MeshOptions:
             (DISK.md §6; the paper's §7 wants it small relative to the triangle).
         crosscut_ratio: A_eff = g/φ, prevertex gap over the half-width of the arc J_k whose
             geodesic image is the crosscut around a vertex (CONFORMAL.md §3.2: circularity of
-            f(γ_k) about 1.1·φ/g).
+            f(γ_k) about 1.1·φ/g). 16 (the notes suggest 64) gives fewer Carleson layers; the
+            conformal collar straightens the less round crosscut.
         lemma_A: the expansion factor A of Lemma 2.2 handed to the disk construction.
         channel_delta: extremal-distance threshold δ below which a channel is a hyperbolic
             thin part (CONFORMAL.md §2.3).
@@ -49,10 +53,10 @@ class MeshOptions:
     """
 
     n: int = 2
-    depth_step: float = 0.25
+    depth_step: float = 1.0
     depth_growth: float = 2.0
     inner_height: float = 1.0
-    crosscut_ratio: float = 64.0
+    crosscut_ratio: float = 16.0
     lemma_A: float = 16.0
     channel_delta: float = 0.15
     sector_ratio: float = 0.25
@@ -95,6 +99,7 @@ class ThickPieceResult:
         image: complex positions in the plane of ``disk.vertices`` (f, and the linear map h
             inside inner triangles).
         n_used: steps per half pentagon side finally used for this piece.
+        depth_step_used: Carleson depth step finally used.
         fixes: what the adaptive loop changed, in order.
     """
 
@@ -107,6 +112,7 @@ class ThickPieceResult:
     image: np.ndarray
     n_used: int
     fixes: tuple[str, ...] = ()
+    depth_step_used: float = 1.0
 
 
 @dataclass(frozen=True)
