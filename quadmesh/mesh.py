@@ -315,7 +315,10 @@ class QuadMesh:
     ) -> QualityReport:
         exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
-        hist, edges = np.histogram(new, bins=36, range=(0.0, 180.0))
+        # angles within the rounding slack of 60°/120° belong to the bins inside the range
+        binned = np.where(np.abs(new - 60.0) <= angle_tol, 60.0, new)
+        binned = np.where(np.abs(binned - 120.0) <= angle_tol, 120.0 - 1e-9, binned)
+        hist, edges = np.histogram(binned, bins=36, range=(0.0, 180.0))
         bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
         bad &= ~exempt
         dev = np.where(exempt, 0.0, np.abs(ang - 90.0)).max(axis=1) if ang.size else ang[:, 0]
