@@ -293,6 +293,23 @@ class QuadMesh:
             unsplit &= is_corner[self.quads]
         return unsplit & (ang < ANGLE_MIN)
 
+    def angle_slack(self, angle_tol: float = ANGLE_TOL_DEG) -> np.ndarray:
+        """(Q, 1) slack in degrees on the bounds 60° and 120° for each quad.
+
+        ``angle_tol`` plus the precision the stored coordinates allow: a vertex stored in
+        float64 is off by up to ε·|z|, which moves an angle of a quad whose shortest edge is ℓ
+        by up to about 2ε·|z|/ℓ radians (ε = machine epsilon). A corner constructed at exactly
+        60° or 120° (Mesh 1 and Mesh 2 of the vertex sectors, the spokes of T_i) therefore
+        reads slightly outside the bound when the quad is tiny compared with its distance from
+        the origin; this slack accepts exactly that and nothing more (8ε·|z|/ℓ, a 4× margin).
+        """
+        q = self.z[self.quads]
+        edge = np.abs(np.roll(q, -1, axis=1) - q).min(axis=1)
+        size = np.abs(q).max(axis=1)
+        with np.errstate(divide="ignore"):
+            rounding = np.degrees(8.0 * np.finfo(float).eps * size / edge)
+        return (angle_tol + rounding)[:, None]
+
     def quality(
         self, polygon: object | None = None, *, angle_tol: float = ANGLE_TOL_DEG
     ) -> QualityReport:
@@ -316,10 +333,12 @@ class QuadMesh:
         exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
         # angles within the rounding slack of 60°/120° belong to the bins inside the range
-        binned = np.where(np.abs(new - 60.0) <= angle_tol, 60.0, new)
-        binned = np.where(np.abs(binned - 120.0) <= angle_tol, 120.0 - 1e-9, binned)
+        slack = np.broadcast_to(self.angle_slack(angle_tol), ang.shape)[~exempt]
+        binned = np.where(np.abs(new - 60.0) <= slack, 60.0, new)
+        binned = np.where(np.abs(binned - 120.0) <= slack, 120.0 - 1e-9, binned)
         hist, edges = np.histogram(binned, bins=36, range=(0.0, 180.0))
-        bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
+        tol = self.angle_slack(angle_tol)
+        bad = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
         bad &= ~exempt
         dev = np.where(exempt, 0.0, np.abs(ang - 90.0)).max(axis=1) if ang.size else ang[:, 0]
         k = min(10, dev.size)
@@ -561,7 +580,8 @@ class QuadMesh:
 
         # --- angles
         exempt = self._exempt_mask(ang, corner_v)
-        bad = ((ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)) & ~exempt
+        tol = self.angle_slack(angle_tol)
+        bad = ((ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)) & ~exempt
         if bad.any():
             bq, bk = np.nonzero(bad)
             w = np.argmax(np.abs(ang[bq, bk] - 90.0))

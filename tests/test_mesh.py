@@ -286,3 +286,23 @@ def test_verify_large_mesh_fast():
     assert report.ok, report.problems
     assert report.n_boundary_edges == 2 * (500 + 400)
     assert dt < 5.0
+
+
+def test_angle_slack_accepts_rounding_only() -> None:
+    """A quad with exact 60°/120° corners, 1e-9 in size, stored at |z| ~ 1: the stored
+    coordinates cannot carry the exact angles, and the slack accepts exactly that error."""
+    import numpy as np
+
+    from quadmesh.mesh import QuadMesh
+
+    h = 1e-9
+    rhombus = np.array([0, 1, 1 + np.exp(1j * np.pi / 3), np.exp(1j * np.pi / 3)]) * h
+    z = 1.0 + 0.5j + rhombus
+    mesh = QuadMesh(np.column_stack([z.real, z.imag]), np.array([[0, 1, 2, 3]]))
+    slack = float(mesh.angle_slack()[0, 0])
+    ang = mesh.angles()
+    assert np.all(np.abs(ang - np.array([60, 120, 60, 120])) <= slack)
+    assert 1e-6 < slack < 1e-3
+    # a real 0.01° defect is far beyond the slack of a normal-size quad
+    big = QuadMesh(np.array([[0, 0], [1, 0], [1.5, 0.866], [0.5, 0.866]]), np.array([[0, 1, 2, 3]]))
+    assert float(big.angle_slack()[0, 0]) < 1e-5
