@@ -269,8 +269,13 @@ class QuadMesh:
         return c[:, _NEXT] - c
 
     def areas(self) -> np.ndarray:
-        """Signed areas of the quads (shoelace formula; positive when counter-clockwise)."""
+        """Signed areas of the quads (shoelace formula; positive when counter-clockwise).
+
+        Each quad is taken relative to its first corner, so a quad that is tiny compared
+        with its distance from the origin keeps its area's relative precision.
+        """
         c = self._corners()
+        c = c - c[:, :1]
         cn = c[:, _NEXT]
         return 0.5 * np.sum(c.real * cn.imag - cn.real * c.imag, axis=1)
 

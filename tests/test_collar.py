@@ -198,3 +198,25 @@ def test_strongly_off_centre_crosscut(theta_deg: float) -> None:
     assert ang.min() >= 72.0 and ang.max() <= 108.0
     sec = mesh_vertex_sector(APEX, DIR, theta, col.straight)
     assert len(sec.gamma_index) == len(g)
+
+
+def test_tiny_collar_far_from_the_origin() -> None:
+    # Regression: the collar of the 355° corner of slit_355deg, shrunk to radius ~7e-9 at
+    # apex 0.5 + 0.3i. Its quads have areas ~1e-19, below the cancellation error of the
+    # shoelace sum of absolute coordinates, and were reported as folded. Areas are now taken
+    # relative to a vertex of the band.
+    from test_parabolic import SLIT_APEX, SLIT_DIR, SLIT_OFFSETS, SLIT_THETA
+
+    g = SLIT_APEX + 1e-2 * SLIT_OFFSETS
+    col = conformal_collar(g, vertex_walls(SLIT_APEX, SLIT_DIR, SLIT_THETA), toward="inner")
+    assert np.all(col.vertices[col.gamma_index] == g)
+    rel = col.vertices - SLIT_APEX
+    areas = quad_signed_areas(rel, col.quads)
+    assert areas.min() > 0
+    band = np.concatenate([rel[col.straight_index], rel[col.gamma_index][::-1]])
+    # the band is bounded by the straight arc, wall 2, gamma (reversed) and wall 1
+    # (wall vertices are collinear only up to rounding: ulp(0.5) / 7e-9 ~ 1e-8 relative)
+    assert abs(areas.sum() - abs(polygon_area(band))) <= 1e-7 * areas.sum()
+    ang = quad_angles_deg(rel, col.quads)
+    assert ang.min() > 70.0 and ang.max() < 110.0
+    np.testing.assert_allclose(np.abs(rel[col.straight_index]), col.radius, rtol=1e-6)

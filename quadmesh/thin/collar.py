@@ -212,14 +212,19 @@ def _preimages(fmap: _Map, y: np.ndarray, span: float) -> np.ndarray:
     k, a, wid = fmap.k, fmap.a, fmap.width
     q = np.exp(-2.0 * k * wid)
     b = a * (1.0 + q) / (1.0 - q)
-    tf = np.linspace(0.0, span, 4097)
+    # Sampled at 8 points per period of the highest mode (a fold narrower than that would
+    # still show up as an inverted quad in the final checks); Newton polishes the start.
+    tf = np.linspace(0.0, span, 16 * len(k) + 1)
     yf = tf + np.sin(np.outer(tf, k)) @ b
     if np.any(np.diff(yf) <= 0.0):
         raise ThinPartError("collar map folds on the crosscut (the crosscut is too tilted)")
     t = np.interp(y, yf, tf)
-    for _ in range(8):
-        res = t + np.sin(np.outer(t, k)) @ b - y
-        dres = 1.0 + np.cos(np.outer(t, k)) @ (b * k)
+    for _ in range(12):
+        kt = np.outer(t, k)
+        res = t + np.sin(kt) @ b - y
+        if np.abs(res).max() <= 1e-15 * span:
+            break
+        dres = 1.0 + np.cos(kt) @ (b * k)
         t = np.clip(t - res / dres, 0.0, span)
     t[0], t[-1] = 0.0, span
     return t
@@ -351,7 +356,10 @@ def conformal_collar(
     quads = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]], axis=-1)
     quads = quads.reshape(-1, 4)
     verts = z.ravel()
-    areas = quad_signed_areas(verts, quads)
+    # Areas and angles relative to one vertex of the band: the shoelace sum of absolute
+    # coordinates cancels when the collar is tiny compared with its distance from the origin.
+    rel = verts - verts[0]
+    areas = quad_signed_areas(rel, quads)
     if areas[0] < 0:
         quads = quads[:, ::-1]
         areas = -areas
@@ -359,7 +367,7 @@ def conformal_collar(
         raise ThinPartError(
             f"collar folds: {int(np.sum(areas <= 0))} quads are inverted or degenerate"
         )
-    ang = quad_angles_deg(verts, quads)
+    ang = quad_angles_deg(rel, quads)
     if ang.min() < 60.0 - 1e-7 or ang.max() > 120.0 + 1e-7:
         raise ThinPartError(
             f"collar angles in [{ang.min():.2f}, {ang.max():.2f}] degrees leave [60, 120]; the "

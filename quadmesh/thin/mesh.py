@@ -147,13 +147,28 @@ def require_angles(
     hi: float,
     what: str,
     tol: float = 1e-6,
+    coord_scale: float = 0.0,
 ) -> None:
-    """Raise :class:`ThinPartError` unless every masked corner angle lies in [lo, hi] degrees."""
+    """Raise :class:`ThinPartError` unless every masked corner angle lies in [lo, hi] degrees.
+
+    The slack is ``tol`` plus the precision the final float64 coordinates allow, as in
+    :meth:`quadmesh.mesh.QuadMesh.angle_slack`: 8ε·|z|/ℓ radians for a quad with shortest
+    edge ℓ, with |z| the larger of the coordinates' magnitude and ``coord_scale`` (pass the
+    magnitude of the absolute position when ``vertices`` are relative to a local origin).
+    Exact 60°/120° corners of Mesh 1 / Mesh 2 read outside the bound by up to that much.
+    """
     areas = quad_signed_areas(vertices, quads)
     if np.any(areas <= 0.0):
         raise ThinPartError(f"{what}: {int(np.sum(areas <= 0))} quads are degenerate or inverted")
-    ang = quad_angles_deg(vertices, quads)[mask]
-    if ang.size and (ang.min() < lo - tol or ang.max() > hi + tol):
+    ang = quad_angles_deg(vertices, quads)
+    q = np.asarray(vertices)[quads]
+    edge = np.abs(np.roll(q, -1, axis=1) - q).min(axis=1)
+    size = np.maximum(np.abs(q).max(axis=1), coord_scale)
+    with np.errstate(divide="ignore"):
+        slack = tol + np.degrees(8.0 * np.finfo(float).eps * size / edge)
+    slack = np.broadcast_to(slack[:, None], ang.shape)[mask]
+    ang = ang[mask]
+    if ang.size and (np.any(ang < lo - slack) or np.any(ang > hi + slack)):
         raise ThinPartError(
             f"{what}: produced angles in [{ang.min():.9f}, {ang.max():.9f}] degrees, "
             f"outside [{lo:g}, {hi:g}]"

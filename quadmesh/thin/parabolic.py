@@ -23,6 +23,12 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
    refinement on both sides). This handles crosscuts whose vertices are strongly graded towards
    the sides (geodesic images, CONFORMAL.md §3), where a single greedy partial level cannot.
    Every chord is refined at least once after Mesh 1, so the outer spans are <= alpha/4 <= 30°.
+   Because every level is crossed by all chords (plain strips), the depth of the deepest leaf
+   sets the quad count; the tree is therefore capped at the smallest depth whose outer vertices
+   stay within 0.15 * log(1/lam) radians of the g_k's polar angles (the connection chains below
+   absorb that mismatch with slope <= 0.15 in log-polar coordinates), with the uncapped tree as
+   the fallback. On the pipeline's crosscuts this gives ~9 quads per crosscut vertex (~15
+   uncapped) and keeps the smallest Mesh 1 / Mesh 2 pieces larger.
 5. The tree is scaled to the sector radius lam * min|g_k - v| and the k-th outer vertex s_k is
    joined to g_k by the connection quads (figure "Same-Sector"). When the straight segments
    s_k g_k give angles too far from 90° (the dyadic tree cannot always put s_k at g_k's angle,
@@ -31,11 +37,18 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
    sector and the crosscut; if needed the sector is also shrunk (lam * 0.4, 0.16, 0.064), which
    lengthens that annulus in log coordinates and flattens the spirals. The first (lam, J) with
    all connection angles in [65°, 115°] is used, else the best one within [60°, 120°].
+6. Checks (THIN.md check_mesh) use coordinates relative to the apex, so a sector that is tiny
+   compared with its distance from the origin is not misjudged by cancellation in the shoelace
+   sum. Exact 60°/120° angles of Mesh 1 / Mesh 2 (degree-3 vertices with three 120° angles admit
+   no slack) are still perturbed by rounding of the absolute coordinates, about
+   4 ulp(|apex|) / (edge length) radians; when that alone exceeds the 1e-6° tolerance the error
+   says the crosscut is too close to the vertex for double precision.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -47,7 +60,6 @@ from .mesh import (
     KIND_STRIP,
     ThinMesh,
     quad_angles_deg,
-    quad_signed_areas,
     require_angles,
     unpaired_edges,
 )
@@ -57,6 +69,9 @@ __all__ = ["mesh2_local", "mesh_vertex_sector", "split_count"]
 _K = 64  # tree boundaries are integers n: angle = alpha * n / 2**_K
 _ONE = 1 << _K
 _MAX_DEPTH = 56
+# Largest slope of the connection chains in log-polar coordinates accepted for a depth-capped
+# refinement tree (see _trees): |angle(s_k) - angle(g_k)| <= _MISMATCH * log(1 / lam).
+_MISMATCH = 0.15
 
 # Shape constants of Mesh 2 (THIN.md §A.3); the angles do not depend on them.
 _KR = 1.0 / math.sqrt(3.0) + 0.25
@@ -80,9 +95,11 @@ def _e(deg: float) -> complex:
 
 def _ray_hit(p: complex, d: complex, u: complex) -> complex:
     """Intersection of the ray p + t d with the line through 0 in direction u."""
-    # p + t d = s u  ->  solve the 2x2 system for (t, s)
-    a = np.array([[d.real, -u.real], [d.imag, -u.imag]])
-    t, _ = np.linalg.solve(a, np.array([-p.real, -p.imag]))
+    # p + t d = s u; the cross product with u eliminates s: t = -cross(u, p) / cross(u, d)
+    den = u.real * d.imag - u.imag * d.real
+    if den == 0.0:
+        raise ThinPartError("internal: Mesh 2 construction ray parallel to the side")
+    t = -(u.real * p.imag - u.imag * p.real) / den
     return p + t * d
 
 
@@ -158,29 +175,104 @@ def _nearest(psi: np.ndarray, ang: float, lo_i: int, hi_i: int) -> int:
     return min(cand, key=lambda j: abs(psi[j] - ang))
 
 
-def _build_tree(psi: np.ndarray, m: int, alpha: float) -> list[_Node]:
-    """Refinement tree (roots = the m subsectors) whose leaves match the crosscut angles."""
+def _build_tree(
+    psi: np.ndarray, m: int, alpha: float, depth_cap: int | None
+) -> tuple[list[_Node], bool]:
+    """Refinement tree (roots = the m subsectors) whose leaves match the crosscut angles.
+
+    Each node is split at its dyadic mid-angle; the crosscut vertex assigned to that boundary is
+    the one nearest in polar angle that leaves room on both sides: at least the minimum
+    refinement (every Mesh 1 chord is refined at least once) and, with ``depth_cap`` = D, at most
+    2**(D - depth) leaves under a node of the given depth, so that no leaf is deeper than D.
+    Returns the roots and whether the cap changed any choice (else the tree is the uncapped one).
+    """
     p1 = len(psi) - 1
+    cap = _MAX_DEPTH if depth_cap is None else depth_cap
+    changed = False
     bounds = [0]
     for j in range(1, m):
-        bounds.append(_nearest(psi, j * alpha, bounds[-1] + 4, p1 - 4 * (m - j)))
+        lo_i, hi_i = bounds[-1] + 4, p1 - 4 * (m - j)
+        pick = _nearest(psi, j * alpha, lo_i, hi_i)
+        if depth_cap is not None:
+            lo_c = max(lo_i, p1 - (m - j) * (1 << cap))
+            hi_c = min(hi_i, bounds[-1] + (1 << cap))
+            capped = _nearest(psi, j * alpha, lo_c, hi_c)
+            changed |= capped != pick
+            pick = capped
+        bounds.append(pick)
     bounds.append(p1)
     roots = [_Node(0, q * _ONE, (q + 1) * _ONE, bounds[q], bounds[q + 1]) for q in range(m)]
     stack = list(roots)
     while stack:
         nd = stack.pop()
-        if nd.depth >= 2 and nd.ib - nd.ia == 1:
+        n = nd.ib - nd.ia
+        if nd.depth >= 2 and n == 1:
             continue
-        if nd.depth >= _MAX_DEPTH:
+        if nd.depth >= cap:
             raise ThinPartError("crosscut vertices are too strongly clustered towards a side")
         min_child = 2 if nd.depth == 0 else 1
         mid = (nd.lo + nd.hi) // 2
-        ic = _nearest(psi, alpha * (mid / _ONE), nd.ia + min_child, nd.ib - min_child)
+        ang = alpha * (mid / _ONE)
+        ic = _nearest(psi, ang, nd.ia + min_child, nd.ib - min_child)
+        if depth_cap is not None:
+            room = max(min_child, n - (1 << (cap - nd.depth - 1)))
+            if room > min_child:
+                capped = _nearest(psi, ang, nd.ia + room, nd.ib - room)
+                changed |= capped != ic
+                ic = capped
         left = _Node(nd.depth + 1, nd.lo, mid, nd.ia, ic)
         right = _Node(nd.depth + 1, mid, nd.hi, ic, nd.ib)
         nd.kids = (left, right)
         stack.extend((left, right))
-    return roots
+    return roots, changed
+
+
+def _leaf_bounds(roots: list[_Node]) -> list[int]:
+    """Dyadic angles (units alpha / 2**_K) of the leaf boundaries, from side 1 to side 2."""
+    out: list[int] = []
+    stack = list(reversed(roots))
+    while stack:
+        nd = stack.pop()
+        if nd.kids is None:
+            out.append(nd.lo)
+        else:
+            stack.extend((nd.kids[1], nd.kids[0]))
+    out.append(roots[-1].hi)
+    return out
+
+
+def _trees(psi: np.ndarray, m: int, alpha: float, lam: float) -> Iterator[list[_Node]]:
+    """Candidate refinement trees, best first.
+
+    Every level of the sector is crossed by all chords (plain strips), so the quad count grows
+    with the depth of the deepest leaf, and deep levels also shrink the smallest Mesh 2 pieces.
+    The first candidate is the shallowest depth-capped tree whose outer vertices lie within
+    ``_MISMATCH * log(1/lam)`` radians of the polar angles of the g_k: the connection chains
+    then have slope <= _MISMATCH in log-polar coordinates (angle change <= ~9°, THIN.md §B).
+    When even the uncapped tree (leaves follow the crosscut as closely as the dyadic angles and
+    the minimum refinement allow) misses by more, the bound is its mismatch + 1°. The uncapped
+    tree is the fallback (the only candidate when no cap changes anything).
+    """
+    full = _build_tree(psi, m, alpha, None)[0]
+    # The uncapped tree cannot always follow the crosscut either (every chord needs at least
+    # one refinement): a capped tree within 1° of its mismatch is as good for the connection.
+    limit = max(_MISMATCH * math.log(1.0 / lam), _mismatch(full, psi, alpha) + math.radians(1.0))
+    depth = max(2, math.ceil(math.log2((len(psi) - 1) / m)))
+    while True:
+        roots, changed = _build_tree(psi, m, alpha, depth)
+        if not changed:
+            break
+        if _mismatch(roots, psi, alpha) <= limit:
+            yield roots
+            break
+        depth += 1
+    yield full
+
+
+def _mismatch(roots: list[_Node], psi: np.ndarray, alpha: float) -> float:
+    """Largest |polar angle of s_k - polar angle of g_k| (radians) of a tree's outer vertices."""
+    y = alpha * (np.array(_leaf_bounds(roots), dtype=float) / _ONE)
+    return float(np.abs(y[:-1] - psi[:-1]).max())
 
 
 class _Builder:
@@ -192,12 +284,16 @@ class _Builder:
         self.z: list[complex] = []
         self.quads: list[tuple[int, int, int, int]] = []
         self.kind: list[int] = []
+        self.dirs: dict[int, complex] = {}
+        # (radius, index) of the vertices on side 1 (n = 0) and side 2 (n = n_top)
+        self.sides: dict[int, list[tuple[float, int]]] = {0: [], n_top: []}
 
     def ray_dir(self, n: int) -> complex:
-        if n == self.n_top:
-            return complex(math.cos(self.theta), math.sin(self.theta))
-        a = self.alpha * (n / _ONE)
-        return complex(math.cos(a), math.sin(a))
+        u = self.dirs.get(n)
+        if u is None:
+            a = self.theta if n == self.n_top else self.alpha * (n / _ONE)
+            u = self.dirs[n] = complex(math.cos(a), math.sin(a))
+        return u
 
     def ray(self, n: int, rho: float) -> int:
         key = ("r", n, rho)
@@ -206,6 +302,9 @@ class _Builder:
             idx = len(self.z)
             self.keys[key] = idx
             self.z.append(rho * self.ray_dir(n))
+            side = self.sides.get(n)
+            if side is not None:
+                side.append((rho, idx))
         return idx
 
     def point(self, key: tuple, z: complex) -> int:
@@ -295,7 +394,31 @@ def mesh_vertex_sector(
         )
 
     alpha = theta_eff / m
-    roots = _build_tree(psi, m, alpha)
+    first: ThinPartError | None = None
+    for roots in _trees(psi, m, alpha, lam):
+        try:
+            return _sector_from_tree(roots, v, u1, u2, g, psi, rad, m, alpha, theta_eff, lam)
+        except ThinPartError as exc:
+            first = first or exc
+    assert first is not None
+    raise first
+
+
+def _sector_from_tree(
+    roots: list[_Node],
+    v: complex,
+    u1: complex,
+    u2: complex,
+    g: np.ndarray,
+    psi: np.ndarray,
+    rad: np.ndarray,
+    m: int,
+    alpha: float,
+    theta_eff: float,
+    lam: float,
+) -> ThinMesh:
+    """Mesh 1, the levels of Mesh 2 / plain strips of the tree, and the connection zone."""
+    n_pts = len(g)
     n_top = m * _ONE
     b = _Builder(alpha, n_top, theta_eff)
 
@@ -391,8 +514,8 @@ def mesh_vertex_sector(
     if len(bounds) != n_pts:
         raise ThinPartError("internal: refinement tree does not have P - 1 leaves")
     outer = np.array([b.ray(n, r_j) for n in bounds], dtype=np.int64)
-    side1_r = sorted((key[2], i) for key, i in b.keys.items() if key[0] == "r" and key[1] == 0)
-    side2_r = sorted((key[2], i) for key, i in b.keys.items() if key[0] == "r" and key[1] == n_top)
+    side1_r = sorted(b.sides[0])
+    side2_r = sorted(b.sides[n_top])
     zu = np.array(b.z, dtype=np.complex128)
     n_base = len(zu)
     g_idx = np.arange(n_base, n_base + n_pts)
@@ -421,9 +544,8 @@ def mesh_vertex_sector(
         for n_rings in _CONNECTION_RINGS:
             ring_z, cq, grid = _connection(v, u1, u2, w_s, w_g, outer, g_idx, n_rings)
             verts = np.concatenate([head, ring_z])
-            if not np.all(quad_signed_areas(verts, cq) > 0):
-                continue
-            dev = float(np.abs(quad_angles_deg(verts, cq) - 90.0).max())
+            # Angles about the apex (exact translation; see _verify).
+            dev = _grid_deviation(verts[grid] - v)
             lam_dev = min(lam_dev, dev)
             if dev < best_dev:
                 best_dev = dev
@@ -444,22 +566,22 @@ def mesh_vertex_sector(
             f"most {math.degrees(alpha) / 4:.1f} deg: the crosscut needs more vertices"
         )
     verts, cq, grid = found
-    for q in cq:
-        b.quad(tuple(int(x) for x in q), KIND_CONNECTION)
 
     s1 = np.concatenate([[apex_i], [i for _, i in side1_r], grid[1:, 0]]).astype(np.int64)
     s2 = np.concatenate([[apex_i], [i for _, i in side2_r], grid[1:, -1]]).astype(np.int64)
     mesh = ThinMesh(
         vertices=verts,
-        quads=np.array(b.quads, dtype=np.int64),
-        kind=np.array(b.kind, dtype=np.uint8),
+        quads=np.concatenate([np.array(b.quads, dtype=np.int64).reshape(-1, 4), cq]),
+        kind=np.concatenate(
+            [np.array(b.kind, dtype=np.uint8), np.full(len(cq), KIND_CONNECTION, np.uint8)]
+        ),
         gamma_index=g_idx,
         apex_index=apex_i,
         side1=s1,
         side2=s2,
         exempt_apex=(m == 1),
     )
-    _verify(mesh, n_pts)
+    _verify(mesh, n_pts, v)
     return mesh
 
 
@@ -497,8 +619,32 @@ def _connection(
     return ring.ravel(), quads.reshape(-1, 4), grid
 
 
-def _verify(mesh: ThinMesh, n_pts: int) -> None:
-    """Conformity and angle checks of THIN.md (check_mesh) before returning."""
+def _grid_deviation(z: np.ndarray) -> float:
+    """Largest |angle - 90°| over the quads of a (rows, P) vertex grid (degrees).
+
+    Quad (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) as in :func:`_connection`. Corner angles are
+    taken in [0°, 360°); a result <= 90° means every quad is convex and counter-clockwise (four
+    angles below 180° sum to 360° only for a simple convex counter-clockwise quad), so no
+    separate area test is needed.
+    """
+    a, b, c, d = z[:-1, :-1], z[1:, :-1], z[1:, 1:], z[:-1, 1:]
+    ab, bc, cd, da = b - a, c - b, d - c, a - d
+    dev = 0.0
+    for num, den in ((-da, ab), (-ab, bc), (-bc, cd), (-cd, da)):
+        ang = np.mod(np.angle(num / den), 2.0 * math.pi)
+        dev = max(dev, float(np.abs(ang - 0.5 * math.pi).max()))
+    return math.degrees(dev)
+
+
+def _verify(mesh: ThinMesh, n_pts: int, v: complex) -> None:
+    """Conformity and angle checks of THIN.md (check_mesh) before returning.
+
+    Areas and angles are computed from the returned coordinates taken relative to the apex
+    (an exact translation for nearby floats), so a sector that is tiny compared with its
+    distance from the origin is judged by its own geometry, not by cancellation in the
+    shoelace sum. The angle check has the pipeline's tolerance (1e-6°); when it fails only
+    because of the rounding of the absolute coordinates, the message says so.
+    """
     free, ok = unpaired_edges(mesh.quads)
     expected = (len(mesh.side1) - 1) + (len(mesh.side2) - 1) + (n_pts - 1)
     if not ok or len(free) != expected:
@@ -506,6 +652,31 @@ def _verify(mesh: ThinMesh, n_pts: int) -> None:
             f"internal: sector mesh not conforming ({len(free)} boundary edges, "
             f"{expected} expected)"
         )
-    require_angles(
-        mesh.vertices, mesh.quads, mesh.new_angle_mask(), 60.0, 120.0, "vertex sector mesh"
-    )
+    rel = mesh.vertices - v
+    try:
+        require_angles(
+            rel,
+            mesh.quads,
+            mesh.new_angle_mask(),
+            60.0,
+            120.0,
+            "vertex sector mesh",
+            coord_scale=abs(v),
+        )
+    except ThinPartError as exc:
+        # Rounding of v + offset perturbs the exact 60°/120° angles of Mesh 1 / Mesh 2 by about
+        # 4 ulp(|v|) / (shortest edge of the quad) radians; say so when that explains the miss.
+        ang = quad_angles_deg(rel, mesh.quads)
+        excess = np.maximum(60.0 - ang, ang - 120.0).max(axis=1)
+        worst = int(np.argmax(excess))
+        z = rel[mesh.quads[worst]]
+        h = float(np.abs(z - np.roll(z, -1)).min())
+        ulp = float(np.spacing(max(abs(v.real), abs(v.imag), 1e-300)))
+        noise = math.degrees(4.0 * ulp / h) if h > 0.0 else math.inf
+        if not 1e-6 < excess[worst] <= noise:
+            raise
+        raise ThinPartError(
+            f"{exc.args[0]}; the worst quad's shortest edge is {h:.3g} at coordinates of size "
+            f"{abs(v):.3g}, where rounding alone moves its exact 60/120 degree angles by up to "
+            f"~{noise:.1g} degrees: the crosscut is too close to the vertex for double precision"
+        ) from exc
