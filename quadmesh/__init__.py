@@ -3,6 +3,7 @@
 Implements C. J. Bishop, "Optimal angle bounds for quadrilateral meshes".
 """
 
+from .decompose import Decomposition, decompose
 from .errors import (
     Cancelled,
     ConformalMapError,
@@ -24,6 +25,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Cancelled",
     "ConformalMapError",
+    "Decomposition",
     "DecompositionError",
     "DiskConstructionError",
     "InputFormatError",
@@ -37,6 +39,7 @@ __all__ = [
     "QualityReport",
     "ThinPartError",
     "VerificationReport",
+    "decompose",
     "mesh_polygon",
     "validate_polygon",
 ]
