@@ -1,10 +1,15 @@
-"""Benchmark of the whole mesher: time and quad count against the number of vertices n.
+"""Benchmarks of the mesher: time and quad count against the number of vertices n.
 
-Run ``python -m quadmesh.benchmark [--max-n 256] [--repeat 1]``. It meshes smooth random
-star-shaped polygons (the family of the bundled ``star_*`` examples) with n = 8 … max-n,
-prints the time of every stage, the quad count, quads per vertex and the measured scaling
-exponents (slope of log time and log quads against log n). A benchmark, not a test: the
-numbers depend on the machine and its load.
+``quadmesh bench`` (or ``python -m quadmesh.benchmark``):
+
+* default: smooth random star-shaped polygons (the family of the bundled ``star_*``
+  examples) with n = 10, 30, 100, 300, 1000 (up to ``--max-n``): time of every stage, quads,
+  quads per vertex, and the fitted exponents of time and quads against n;
+* ``--examples``: every bundled example, with the same columns (or the reason it failed);
+* ``--disk``: the disk construction alone (Lemma 2.2 + piece meshes) for m = 10, 100, 1000
+  random admissible arcs: time, pieces and quads.
+
+A benchmark, not a test: the numbers depend on the machine and its load.
 """
 
 from __future__ import annotations
@@ -31,11 +36,13 @@ def smooth_star(n: int, seed: int = 0, amplitude: float = 0.35) -> np.ndarray:
     return np.column_stack([r * np.cos(t), r * np.sin(t)])
 
 
-def run(max_n: int = 256, repeat: int = 1, options: MeshOptions | None = None) -> list[dict]:
-    """Mesh stars of n = 8, 16, … max_n vertices; return one row of measurements per n."""
+SIZES = (10, 30, 100, 300, 1000)
+
+
+def run(max_n: int = 1000, repeat: int = 1, options: MeshOptions | None = None) -> list[dict]:
+    """Mesh stars of n = 10, 30, 100, 300, 1000 (≤ max_n) vertices; one row per n."""
     rows = []
-    n = 8
-    while n <= max_n:
+    for n in (m for m in SIZES if m <= max_n):
         poly = smooth_star(n, seed=n)
         best = None
         for _ in range(repeat):
@@ -56,7 +63,6 @@ def run(max_n: int = 256, repeat: int = 1, options: MeshOptions | None = None) -
                 **{f"t_{k}": v for k, v in result.timings.items()},
             }
         )
-        n *= 2
     return rows
 
 
@@ -64,12 +70,59 @@ def _slope(x: list[float], y: list[float]) -> float:
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
+def run_examples() -> None:
+    """Mesh every bundled example and print one line each (or why it failed)."""
+    from .errors import QuadmeshError
+    from .examples import example_names, load_example
+
+    print(f"{'example':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}")
+    for name in example_names():
+        poly = load_example(name)
+        t0 = time.perf_counter()
+        try:
+            r = mesh_polygon(poly)
+        except QuadmeshError as exc:
+            print(f"{name:22s} {len(poly):5d} {time.perf_counter() - t0:8.2f} failed: {exc}")
+            continue
+        q = r.quality
+        print(
+            f"{name:22s} {len(poly):5d} {time.perf_counter() - t0:8.2f} {q.n_quads:9d} "
+            f"{q.n_quads / len(poly):8.0f} {r.pieces[0].n_used:6d}"
+        )
+
+
+def run_disk(sizes: tuple[int, ...] = (10, 100, 1000)) -> None:
+    """Time the disk construction (Lemma 2.2 and the piece meshes) on random arcs."""
+    from .disk import disk_mesh
+    from .disk.demo import spread_intervals
+
+    print(f"{'m':>6} {'time s':>8} {'pentagons':>9} {'C-quads':>8} {'C-tri':>7} {'quads':>9}")
+    for m in sizes:
+        iv = spread_intervals(m, 1024.0, seed=m)
+        t0 = time.perf_counter()
+        d = disk_mesh(iv, A=1024.0, n=2, depth_step=1.0, depth_growth=2.0)
+        dt = time.perf_counter() - t0
+        k = d.kind
+        print(
+            f"{m:6d} {dt:8.2f} {len(d.pieces.tiles):9d} {len(d.pieces.quads):8d} "
+            f"{len(d.pieces.triangles):7d} {k.size:9d}"
+        )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the benchmark table and the scaling exponents."""
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--max-n", type=int, default=256)
+    ap = argparse.ArgumentParser(prog="quadmesh bench", description=__doc__)
+    ap.add_argument("--max-n", type=int, default=1000)
     ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--examples", action="store_true", help="mesh every bundled example")
+    ap.add_argument("--disk", action="store_true", help="benchmark the disk construction")
     args = ap.parse_args(argv)
+    if args.examples:
+        run_examples()
+        return 0
+    if args.disk:
+        run_disk()
+        return 0
     rows = run(args.max_n, args.repeat)
     stages = ["conformal", "intervals", "disk", "push_forward", "thin", "verify"]
     head = f"{'n':>5} {'total s':>8} " + " ".join(f"{s[:8]:>8}" for s in stages)

@@ -164,3 +164,15 @@ def test_disk_demo(files, capsys):
     png = files["dir"] / "disk.png"
     assert main(["disk-demo", "-o", str(png)]) == EXIT_OK
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bench_command_prints_rows(capsys) -> None:
+    from quadmesh.cli import main
+
+    assert main(["bench", "--max-n", "10"]) == 0
+    out = capsys.readouterr().out
+    row = [line for line in out.splitlines() if line.strip().startswith("10 ")]
+    assert row, out
+    fields = row[0].split()
+    quads, per_vertex = int(fields[8]), float(fields[9])
+    assert quads > 0 and per_vertex == pytest.approx(quads / 10, abs=1)
