@@ -112,3 +112,38 @@ def test_bad_arguments() -> None:
         disk_mesh([[0.0, 0.1]])  # no A
     with pytest.raises(DiskConstructionError):
         disk_mesh([[0.0, 0.01]], A=16.0, n=0)
+
+
+def _crowded_intervals(kmax: int, A: float = 16.0) -> np.ndarray:
+    """Intervals like the thick piece of the example ``glyph_s``: prevertices accumulating
+    geometrically (ratio 4) at 0 and at π from both sides, and arcs chosen as the pipeline does:
+    J a tessellation arc around the prevertex of half-width about gap/200, I_j concentric with J of
+    half-width |J|/(2·1.02·√A)."""
+    from quadmesh.disk.tessellation import minimal_containing_arc
+
+    k = np.arange(kmax + 1)
+    off = 0.4 * 4.0 ** (-k)
+    c = np.sort(np.concatenate([off, -off, np.pi + off, np.pi - off]))
+    gap = np.minimum(np.diff(c, prepend=c[-1] - 2 * np.pi), np.diff(c, append=c[0] + 2 * np.pi))
+    half = gap / 200.0
+    js, jl, _, _ = minimal_containing_arc(np.mod(c - half, 2 * np.pi), 2 * half)
+    hi = jl / (2.0 * 1.02 * np.sqrt(A))
+    return np.column_stack([np.mod(js + jl / 2 - hi, 2 * np.pi), 2 * hi])
+
+
+def test_crowded_intervals_regression_glyph_s() -> None:
+    """Regression for glyph_s (``no pentagon edge found on γ_48``): its piece had 27 arcs of
+    5e-16 … 2.5e-12 rad at angles 0 and π, below what float64 disk coordinates resolve.  Down to
+    the resolution limit the construction works; below it fails with a clear message."""
+    from quadmesh.disk.region import MIN_EXPANDED_ARC
+
+    iv = _crowded_intervals(15)
+    assert 4.0 * iv[:, 1].min() > MIN_EXPANDED_ARC and iv[:, 1].min() < 1e-10
+    D = disk_mesh(iv, A=16.0, n=2, depth_step=0.25, inner_height=1.0, depth_growth=2.0)
+    check_conformity(D.quads, D.vertices.size)
+    assert np.all(_local_areas(D.vertices, D.quads) > 0)
+    ang = chord_angles(D.vertices, D.quads)
+    assert ang[~D.inner].min() >= 60.0 and ang[~D.inner].max() <= 120.0
+    iv = _crowded_intervals(16)
+    with pytest.raises(DiskConstructionError, match="resolution limit"):
+        disk_mesh(iv, A=16.0, n=2)

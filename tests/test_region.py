@@ -9,6 +9,7 @@ import pytest
 
 from quadmesh.disk.demo import EXAMPLES, spread_intervals
 from quadmesh.disk.region import (
+    MIN_EXPANDED_ARC,
     RegionW,
     build_region,
     crossing_check,
@@ -134,7 +135,8 @@ def test_lemma_2_3_pieces_per_interval_bounded() -> None:
 
 def test_local_K_arcs_equal_brute_force_greedy(region: RegionW) -> None:
     """The K arcs found by the local tile growth are those of DISK.md's greedy run over *all*
-    I5 arcs of a fine global tessellation (10191 tiles, Euclidean diameter >= 0.002)."""
+    I5 arcs shorter than π of a fine global tessellation (10191 tiles, Euclidean diameter
+    >= 0.002)."""
     from quadmesh.disk.tessellation import brute_force_i5_arcs, generate_tiles
 
     tiles, _ = generate_tiles(min_diameter=0.002)
@@ -151,9 +153,32 @@ def test_local_K_arcs_equal_brute_force_greedy(region: RegionW) -> None:
         r = (prev.start + prev.length) % TWO_PI
         k = next(kk for kk in range(m) if 0 < (r - je[kk]) % TWO_PI < gl[kk])
         rel = np.mod(bs - je[k], TWO_PI)
-        cont = (rel > 0) & (rel + bl < gl[k]) & arc_contains_point(bs, bl, r)
+        cont = (rel > 0) & (rel + bl < gl[k]) & (bl < np.pi) & arc_contains_point(bs, bl, r)
         best = np.flatnonzero(cont)[np.lexsort((-bl[cont], -(rel + bl)[cont]))[0]]
         assert bs[best] == pytest.approx(c.start, abs=1e-9)
         assert bl[best] == pytest.approx(c.length, abs=1e-9)
         n_k += 1
     assert n_k >= 4
+
+
+@pytest.mark.parametrize("ell", [1e-3, 1e-5, 1e-8])
+def test_single_small_interval_cover_arcs_shorter_than_pi(ell: float) -> None:
+    """Regression: for one small interval the maximal I5 arc in the gap is almost all of T;
+    choosing it as a K arc made the pentagon boundary fail to chain (or gave 'Carleson quads'
+    covering most of D).  K arcs are now shorter than π and W contains 0."""
+    R = build_region([[1.0, ell]], 16.0)
+    assert all(c.length < math.pi for c in R.cover)
+    assert np.allclose(crossing_check(R), 90.0, atol=1e-5)
+    assert in_W(R, np.array([0.0]))[0]
+    cnt, _ = piece_membership(R, np.array([0.0, 0.3 + 0.2j]))
+    assert np.all(cnt == 1)
+
+
+def test_resolution_limit_is_a_clear_error() -> None:
+    with pytest.raises(DiskConstructionError, match=r"too small .* double precision"):
+        build_region([[1.0, 1e-3], [3.0, 0.5 * MIN_EXPANDED_ARC / 4.0]], 16.0)
+    R = build_region([[1.0, 1e-3], [3.0, 1.01 * MIN_EXPANDED_ARC / 4.0]], 16.0)
+    # the crossings are tile vertices, placed to ~1e-4 relative at this scale
+    assert np.allclose(crossing_check(R), 90.0, atol=0.05)
+    for q in R.quads:
+        assert distance(q.u0, q.u1) == pytest.approx(L, rel=2e-3)

@@ -121,3 +121,40 @@ def test_minimal_arc_for_tiny_arcs() -> None:
 def test_minimal_arc_rejects_huge_arc() -> None:
     with pytest.raises(DiskConstructionError):
         minimal_containing_arc(np.array([0.0]), np.array([3.0]))
+
+
+def test_tileset_batch_dedup_is_scale_invariant() -> None:
+    """add_batch merges repeats (within the batch and against stored tiles) at any scale and
+    keeps distinct tiles apart, also for tiles of Euclidean size 1e-11 near T."""
+    from quadmesh.disk.tessellation import TileSet
+
+    for r in (0.0, 0.9, 1.0 - 1e-11):
+        c = r * np.exp(0.7j)
+        g = locate(np.array([c]))
+        nb = g[np.zeros(5, dtype=np.int64)] @ REFLECTIONS[np.arange(5)]
+        z = nb.apply_rows(np.zeros(1))[:, 0]
+        ts = TileSet()
+        idx0, new0 = ts.add_batch(nb.M[:2], nb.sigma[:2], z[:2])
+        assert new0.tolist() == [True, True] and idx0.tolist() == [0, 1]
+        # the batch repeats tile 1 (perturbed relative to its size) and tile 3
+        scale = 1.0 - abs(z[3])
+        zz = np.array([z[1] + 1e-9 * scale, z[2], z[3], z[3] * (1 - 1e-9 * scale), z[4]])
+        MM = nb.M[[1, 2, 3, 3, 4]]
+        idx, new = ts.add_batch(MM, nb.sigma[[1, 2, 3, 3, 4]], zz)
+        assert idx.tolist() == [1, 2, 3, 3, 4]
+        assert new.tolist() == [False, True, True, False, True]
+        assert len(ts) == 5
+        assert ts.find(complex(z[4])) == 4
+
+
+def test_generate_tiles_neighbours_are_mutual() -> None:
+    tiles, nbr = generate_tiles(depth=4)
+    t, k = np.nonzero(nbr >= 0)
+    back = nbr[nbr[t, k], k]
+    expanded = back >= 0  # tiles of the last generation are not expanded
+    assert expanded.sum() > 0.5 * t.size
+    assert np.all(back[expanded] == t[expanded])  # σ_k fixes edge k: the relation is symmetric
+    c = tiles.apply_rows(np.zeros(1))[:, 0]
+    d = distance(c[:, None], c[None, :])
+    np.fill_diagonal(d, np.inf)
+    assert d.min() > 1.2  # no duplicate tiles (distinct centres are 2·R_M = 1.254 apart)

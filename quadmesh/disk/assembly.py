@@ -28,12 +28,13 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import DiskConstructionError
-from ..hyperbolic import phi, phi_inv
+from ..hyperbolic import phi_inv
 from .canonical import orient_quads
 from .carleson_quad import carleson_quad_mesh, carleson_quad_to_disk
 from .carleson_triangle import depth_sequence, model_triangle_mesh
 from .pentagon import pentagon_mesh
 from .region import KIND_J, RegionW, build_region
+from .tessellation import POSITION_RTOL, phi_accurate
 
 __all__ = ["DiskMesh", "TriangleMap", "disk_mesh"]
 
@@ -113,7 +114,7 @@ def _check_close(
     if a.ndim == 2 and ref.ndim == 1:
         scale = scale[:, None]
     err = np.abs(a - b) / scale
-    if err.size and np.max(err) > 1e-4:
+    if err.size and np.max(err) > POSITION_RTOL:
         raise DiskConstructionError(
             f"{what}: shared vertices disagree (relative error {np.max(err):.2e}); "
             "the pieces do not fit together"
@@ -261,7 +262,13 @@ def disk_mesh(
     ea = np.exp(1j * cs[q_cover])
     eb = np.exp(1j * (cs[q_cover] + cl[q_cover]))
     vf, qq = carleson_quad_to_disk(
-        CQ, np.zeros(Qc, complex), phi(u0, u1), phi(u0, ea), phi(u0, eb), -np.ones(Qc), tol=1e-4
+        CQ,
+        np.zeros(Qc, complex),
+        phi_accurate(u0, u1),
+        phi_accurate(u0, ea),
+        phi_accurate(u0, eb),
+        -np.ones(Qc),
+        tol=POSITION_RTOL,
     )
     q_pos = phi_inv(u0[:, None], vf)
     base = CQ.sides["base"]
@@ -302,7 +309,9 @@ def disk_mesh(
     tau_local = (
         _three_point_maps(
             np.array([-1.0, 1.0, w_model], dtype=np.complex128),
-            np.stack([phi(apex, lf), phi(apex, rf), np.zeros(Tr, complex)], axis=1),
+            np.stack(
+                [phi_accurate(apex, lf), phi_accurate(apex, rf), np.zeros(Tr, complex)], axis=1
+            ),
         )
         if Tr
         else np.zeros((0, 2, 2), complex)
