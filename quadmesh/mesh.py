@@ -298,6 +298,14 @@ class QuadMesh:
             unsplit &= is_corner[self.quads]
         return unsplit & (ang < ANGLE_MIN)
 
+    def new_angle_mask(self, polygon: object | None = None) -> np.ndarray:
+        """(Q, 4) mask of the *new* corner angles: all corners except an unsplit original
+        polygon corner below 60°, which the construction keeps as it is (Theorem 1.1). With
+        ``polygon`` the corner must be one of its vertices; without, any vertex in one quad."""
+        poly = validate_polygon(polygon) if polygon is not None else None
+        corners = None if poly is None else self._match_corners(poly)[0]
+        return ~self._exempt_mask(self.angles(), corners)
+
     def angle_slack(self, angle_tol: float = ANGLE_TOL_DEG) -> np.ndarray:
         """(Q, 1) slack in degrees on the bounds 60° and 120° for each quad.
 

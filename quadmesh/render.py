@@ -389,23 +389,8 @@ def _complex_vertices(obj: Any) -> np.ndarray:
 
 
 def _new_angle_mask(result: Any, ang: np.ndarray) -> np.ndarray:
-    """(Q, 4) mask of the *new* corner angles: every corner except an unsplit original polygon
-    corner (a polygon vertex lying in a single quad) whose angle is below 60°, which the
-    construction keeps as it is (Theorem 1.1; same rule as :meth:`QuadMesh.quality`)."""
-    mesh = result.mesh
-    quads = np.asarray(mesh.quads, dtype=np.int64)
-    z = _as_complex(mesh.vertices)
-    valence = np.bincount(quads.ravel(), minlength=z.size)
-    unsplit = (valence[quads] == 1) & (ang < ANGLE_MIN)
-    if not np.any(unsplit):
-        return np.ones(quads.shape, dtype=bool)
-    pz = np.asarray(result.polygon.z, dtype=np.complex128)
-    tol = 1e-9 * max(float(np.ptp(pz.real)), float(np.ptp(pz.imag)), 1e-300)
-    cand = np.flatnonzero(unsplit.ravel())
-    near = np.min(np.abs(z[quads.ravel()[cand]][:, None] - pz[None, :]), axis=1) <= tol
-    exempt = np.zeros(quads.size, dtype=bool)
-    exempt[cand[near]] = True
-    return ~exempt.reshape(quads.shape)
+    """(Q, 4) mask of the *new* corner angles (:meth:`QuadMesh.new_angle_mask`)."""
+    return result.mesh.new_angle_mask(result.polygon)
 
 
 def _quality_range(result: Any) -> tuple[float, float]:
