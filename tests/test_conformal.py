@@ -175,6 +175,12 @@ def test_inverse_non_star_shaped_about_center() -> None:
     assert np.max(np.abs(dm(z) - w)) < 1e-10
 
 
+def test_inverse_rejects_outside_points() -> None:
+    dm = DiskMap.from_polygon(L_SHAPE, 0.5 + 0.5j)
+    with pytest.raises(ConformalMapError, match="outside"):
+        dm.inverse(np.array([0.5 + 0.5j, 1.5 + 1.5j]))
+
+
 def test_fast_forward_matches_quadrature_everywhere() -> None:
     dm = DiskMap.from_polygon(random_star(30, 0.5, 1.5, 0), 0.0)
     rng = np.random.default_rng(7)

@@ -138,7 +138,7 @@ def main() -> None:
     if not args.skip_eval:
         eval_table()
     if args.crowding:
-        crowding_table([10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30, 40, 50, 60])
+        crowding_table([10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30, 40, 60, 80, 100, 150])
 
 
 if __name__ == "__main__":

@@ -209,15 +209,15 @@ def _newton(prob: _Problem, x0: np.ndarray, tol: float, maxit: int = 50):
     nr = float(np.linalg.norm(r))
     it = 0
     for it in range(1, maxit + 1):  # noqa: B007 (it is returned)
-        if np.max(np.abs(r)) < 1e-14:
+        if np.max(np.abs(r)) < 5e-14:
             break
         try:
             dx = np.linalg.solve(J, -r)
         except np.linalg.LinAlgError:
             dx = np.linalg.lstsq(J, -r, rcond=None)[0]
         big = np.max(np.abs(dx))
-        if big > 3.0:
-            dx *= 3.0 / big
+        if big > 5.0:
+            dx *= 5.0 / big
         t = 1.0
         accepted = False
         while t >= 1.0 / 1024:
@@ -302,8 +302,14 @@ class DiskMap:
     Build with :meth:`from_polygon`. Attributes: ``vertices`` (complex, CCW), ``prevertices``
     (unit complex, same order), ``theta`` (prevertex angles, ``theta[0] = 0``), ``gaps``
     (``θ_{k+1} − θ_k`` with full relative precision), ``angles`` (interior angles / π),
-    ``beta``, ``constant`` (C), ``center``, ``iterations``, ``solve_time``,
+    ``beta``, ``constant`` (C), ``center``, ``residual``, ``iterations``, ``solve_time``,
     ``continuation_steps``.
+
+    Under crowding use ``gaps`` rather than differences of ``theta``/``prevertices`` (which
+    carry ~1e-16 absolute error), and :meth:`map_near_vertex` (local offsets from a
+    prevertex) for points near a crowded cluster. Evaluation: ``__call__`` (series based,
+    fast), :meth:`direct` (quadrature), :meth:`derivative` (closed form), :meth:`taylor`,
+    :meth:`map_clusters`, :meth:`inverse`; checks: :meth:`accuracy`.
     """
 
     def __init__(self, prob: _Problem, gaps: np.ndarray, iterations: int, steps: int) -> None:
@@ -356,8 +362,11 @@ class DiskMap:
         ``center``: interior point (default: :func:`inscribed_center`). ``tol``: bound for the
         checks of §1.7 (the round trip must also be < 1e-12). ``min_gap``: prevertex gaps below
         this are rejected as crowding. ``continuation``: None = automatic (elongation > 6 or
-        failed cold start). ``local=False`` computes prevertex differences from ``exp(iθ)`` as
-        the prototype did (for comparison only; it loses precision under crowding).
+        failed cold start): first the affine family (polygon compressed along its major axis
+        to elongation 1.5, then stretched back), then, for polygons star-shaped about the
+        centre, the radial blend from a nearly regular polygon. ``local=False`` computes
+        prevertex differences from ``exp(iθ)`` as the prototype did (for comparison only; it
+        loses precision under crowding).
         Raises :class:`ConformalMapError` with the reason (crowding with the measured gap, no
         convergence with the residual) and :class:`PolygonError` for unusable input.
         """
@@ -396,9 +405,19 @@ class DiskMap:
             x1, res, its, ok = _newton(prob, x, tol)
             if ok:
                 x = x1
-        if not ok and continuation is not False:
-            x1, res, its2, steps, ok = _continue(prob, p0, u, elong, tol)
+        families = []
+        if continuation is not False:
+            if elong > 1.5:
+                s0 = 1.5 / elong
+                families.append(lambda t: _compress(wr, center, p0, u, s0 ** (1.0 - t)))
+            if _star_shaped(wr, center):
+                families.append(lambda t: _radial_blend(wr, center, t))
+        for family in families:
+            if ok:
+                break
+            x1, res, its2, steps2, ok = _continue(prob, family, tol, min_gap)
             its += its2
+            steps += steps2
             if ok:
                 x = x1
         if not ok:
@@ -743,13 +762,20 @@ class DiskMap:
         return self._table
 
     def _starts(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self._star:
-            return np.zeros(w.size, complex), np.full(w.size, self.center)
+        """Start pairs (z0, f(z0)) whose image segment [f(z0), w] lies in the polygon."""
         import shapely
 
-        tree, zt, wt = self._start_table()
         poly = shapely.Polygon(np.column_stack([self.vertices.real, self.vertices.imag]))
         shapely.prepare(poly)
+        inside = shapely.dwithin(poly, shapely.points(w.real, w.imag), 1e-12 * self._diam)
+        if not np.all(inside):
+            k = int(np.flatnonzero(~inside)[0])
+            raise ConformalMapError(
+                f"inverse map: {int(np.sum(~inside))} points are outside the polygon (e.g. {w[k]})"
+            )
+        if self._star:
+            return np.zeros(w.size, complex), np.full(w.size, self.center)
+        tree, zt, wt = self._start_table()
         z0 = np.full(w.size, np.nan + 0j)
         w0 = np.full(w.size, np.nan + 0j)
         todo = np.arange(w.size)
@@ -785,32 +811,50 @@ class DiskMap:
     def inverse(self, w: np.ndarray, tol: float = 1e-14) -> np.ndarray:
         """``f⁻¹(w)`` for points of the closed polygon (vectorised, §1.6): the ODE
         ``dz/dt = (w − w0)/f'(z)`` from a visible start pair (RK45), then Newton steps with
-        damping inside the disk until ``|f(z) − w| ≤ tol·diam``."""
+        damping inside the disk until ``|f(z) − w| ≤ tol·diam``. Points that end above
+        ``1e-10·diam`` are redone with a tighter ODE; if they still fail,
+        :class:`ConformalMapError` is raised (no silent bad output)."""
         w = np.asarray(w, dtype=np.complex128)
         flat = w.ravel()
         if flat.size == 0:
             return np.empty(w.shape, complex)
+        z, err = self._inverse_pass(flat, 1e-5, tol)
+        bad = np.flatnonzero(err > 1e-10 * self._diam)
+        if bad.size:
+            z[bad], err[bad] = self._inverse_pass(flat[bad], 1e-9, tol)
+            bad = np.flatnonzero(err > 1e-10 * self._diam)
+            if bad.size:
+                raise ConformalMapError(
+                    f"inverse map did not converge at {bad.size} points "
+                    f"(max |f(z) − w| = {np.max(err[bad]):.1e}, e.g. w = {flat[bad[0]]})"
+                )
+        return z.reshape(w.shape)
+
+    def _inverse_pass(
+        self, flat: np.ndarray, rtol: float, tol: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One ODE + Newton pass; returns the preimages and the final |f(z) − w|."""
         z0, w0 = self._starts(flat)
         dw = flat - w0
         M = flat.size
 
         def rhs(_t: float, y: np.ndarray) -> np.ndarray:
             zz = y[:M] + 1j * y[M:]
-            mag = np.abs(zz)
-            zz = np.where(mag > 1.0, zz / np.maximum(mag, 1e-300), zz)
+            zz = zz / np.maximum(np.abs(zz), 1.0)
             v = dw / self.derivative(zz)
             return np.concatenate([v.real, v.imag])
 
-        sol = solve_ivp(rhs, (0.0, 1.0), np.concatenate([z0.real, z0.imag]), rtol=1e-7, atol=1e-10)
+        sol = solve_ivp(
+            rhs, (0.0, 1.0), np.concatenate([z0.real, z0.imag]), rtol=rtol, atol=1e-3 * rtol
+        )
         z = sol.y[:M, -1] + 1j * sol.y[M:, -1]
-        mag = np.abs(z)
-        z = np.where(mag > 1.0, z / mag, z)
+        z = z / np.maximum(np.abs(z), 1.0)
+        err_all = np.full(M, np.inf)
         active = np.arange(M)
         for _ in range(12):
-            if active.size == 0:
-                break
             fz, fpz = self._evaluate(z[active], True)
             err = fz - flat[active]
+            err_all[active] = np.abs(err)
             done = np.abs(err) <= tol * self._diam
             active = active[~done]
             err, fpz = err[~done], fpz[~done]
@@ -825,7 +869,9 @@ class DiskMap:
                 step[out] *= 0.5
                 znew[out] = z[active][out] - step[out]
             z[active] = znew
-        return z.reshape(w.shape)
+        if active.size:
+            err_all[active] = np.abs(self._evaluate(z[active], False)[0] - flat[active])
+        return z, err_all
 
     # ------------------------------------------------------------------ checks
     def accuracy(self) -> ConformalAccuracy:
@@ -891,33 +937,55 @@ def _cell_centres(keys: np.ndarray) -> np.ndarray:
     return cen
 
 
-def _continue(prob: _Problem, p0: complex, u: complex, elong: float, tol: float):
-    """Affine continuation: solve the polygon compressed along its major axis to
-    elongation ≈ 1.5, then stretch back in adaptive steps (§1.5)."""
-    w, c = prob.w, prob.c
-    s = min(1.0, 1.5 / max(elong, 1e-12))
+def _star_shaped(w: np.ndarray, c: complex) -> bool:
+    """True when c lies strictly inside the kernel (left of every side's line)."""
+    e = np.roll(w, -1) - w
+    return bool(np.all((np.conj(e) * (c - w)).imag > 0))
+
+
+def _radial_blend(w: np.ndarray, c: complex, t: float) -> tuple[np.ndarray, complex]:
+    """Star-shaped homotopy: vertex radii about c blended geometrically from their mean
+    (t = 0, a nearly regular polygon) to their true values (t = 1); every member is
+    star-shaped about c, hence simple."""
+    v = w - c
+    rho = np.abs(v)
+    lr = np.log(rho)
+    r_t = np.exp((1.0 - t) * lr.mean() + t * lr)
+    return c + r_t * (v / rho), c
+
+
+def _continue(prob: _Problem, family, tol: float, min_gap: float = 0.0, max_steps: int = 30):
+    """Continuation along a family of polygons ``family(t) -> (w_t, c_t)``, t ∈ [0, 1],
+    ``family(1)`` being the target: solve t = 0 from the initial guess, then advance t in
+    adaptive steps, each Newton solve starting from the previous solution (§1.5). Gives up
+    after ``max_steps`` steps, or as soon as an intermediate solution crowds below
+    ``min_gap`` (the target would be rejected anyway)."""
     its = 0
     steps = 0
-    ws, cs = _compress(w, c, p0, u, s)
+    ws, cs = family(0.0)
     sub = _Problem(ws, cs, prob.m, prob.local, prob.ref)
     x, res, k, ok = _newton(sub, _x_from_gaps(_initial_gaps(ws, cs)), tol)
     its += k
     if not ok:
         return x, res, its, steps, False
-    h = math.log(2.0)
-    ls = math.log(s)
-    while ls < 0.0:
-        lt = min(0.0, ls + h)
-        ws, cs = _compress(w, c, p0, u, math.exp(lt))
-        sub = prob if lt == 0.0 else _Problem(ws, cs, prob.m, prob.local, prob.ref)
+    h = 0.25
+    t = 0.0
+    while t < 1.0:
+        tn = min(1.0, t + h)
+        ws, cs = family(tn)
+        sub = prob if tn == 1.0 else _Problem(ws, cs, prob.m, prob.local, prob.ref)
         x1, res, k, ok = _newton(sub, x, tol)
         its += k
         steps += 1
         if ok:
-            x, ls = x1, lt
-            h = min(h * 1.5, math.log(4.0))
+            x, t = x1, tn
+            h = min(h * 1.5, 0.5)
+            if t < 1.0 and np.min(_Problem.gaps(x)) < min_gap:
+                return x, res, its, steps, False
         else:
             h *= 0.5
             if h < 1e-3:
                 return x1, res, its, steps, False
+        if steps >= max_steps and t < 1.0:
+            return x, res, its, steps, False
     return x, res, its, steps, True

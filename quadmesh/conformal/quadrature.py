@@ -4,8 +4,8 @@ CONFORMAL.md §1.4 and §1.9 (local coordinates). The Schwarz–Christoffel inte
 ``F(s) = Π_j (1 − s/z_j)^{β_j}`` with prevertices ``z_j = exp(iθ_j)`` on the unit circle.
 
 Local coordinates. The configuration is stored through its gaps ``d_k = θ_{k+1} − θ_k``
-(``θ_0 = 0``), which carry full relative precision even when they are tiny. The angles
-``θ_k`` are accumulated in double-double arithmetic, so every difference ``θ_j − θ_b`` is
+(``θ_0 = 0``), which carry full relative precision even when they are tiny. Every difference
+``Δ = θ_j − θ_b`` is summed from the gaps between b and j (the shorter way round), so it is
 accurate relative to its own size, and ``z_j − z_b = z_b·2i sin(Δ/2) e^{iΔ/2}`` is accurate
 relative to ``|z_j − z_b|``. Every quadrature node is stored as a base (a prevertex, or the
 origin) plus a local offset ``d``; the factors ``1 − s/z_j = (z_j − z_b − d)/z_j`` are then
@@ -85,44 +85,29 @@ class Configuration:
         gaps = np.asarray(gaps, dtype=float)
         n = gaps.size
         self.local = local
+        theta = np.concatenate([[0.0], np.cumsum(gaps[:-1])])
         if not local:
             # the prototype's absolute coordinates: θ rounded to double, z = exp(iθ)
-            th = np.concatenate([[0.0], np.cumsum(gaps[:-1])])
-            gaps = np.diff(np.append(th, TWO_PI))
-        hi = np.empty(n + 1)
-        hi[0] = 0.0
-        np.cumsum(gaps, out=hi[1:])
-        a = hi[:-1]
-        s = hi[1:]
-        bb = s - a
-        err = (a - (s - bb)) + (gaps - bb)  # exact rounding error of each addition (TwoSum)
-        lo = np.empty(n + 1)
-        lo[0] = 0.0
-        np.cumsum(err, out=lo[1:])
+            gaps = np.diff(np.append(theta, TWO_PI))
         self.n = n
         self.gaps = gaps
         self.beta = np.asarray(beta, dtype=float)
-        self.hi = hi
-        self.lo = lo
-        self.theta = hi[:n] + lo[:n]
-        self.z = np.exp(1j * hi[:n]) * np.exp(1j * lo[:n])
+        self.theta = theta
+        self.z = np.exp(1j * theta)
         self.zc = np.conj(self.z)
-        h, lw = hi[:n], lo[:n]
-        delta = (h[None, :] - h[:, None]) + (lw[None, :] - lw[:, None])
-        up = delta > np.pi
-        if np.any(up):
-            alt = ((h[None, :] - hi[n]) - h[:, None]) + ((lw[None, :] - lo[n]) - lw[:, None])
-            delta = np.where(up, alt, delta)
-        down = delta < -np.pi
-        if np.any(down):
-            alt = ((hi[n] - h[:, None]) + h[None, :]) + ((lo[n] - lw[:, None]) + lw[None, :])
-            delta = np.where(down, alt, delta)
         E = np.empty((n + 1, n), dtype=np.complex128)
         if local:
+            # θ_j − θ_b as a sum of the gaps from b forward (or, past π, minus the sum from j
+            # forward to b): every difference is accurate relative to its own size, whatever
+            # the rounding of the angles themselves.
+            ar = np.arange(n)
+            K = (ar[None, :] - ar[:, None]) % n
+            F = np.zeros((n, n + 1))
+            np.cumsum(gaps[(ar[:, None] + ar[None, :]) % n], axis=1, out=F[:, 1:])
+            fwd = np.take_along_axis(F, K, axis=1)
+            delta = np.where(fwd <= np.pi, fwd, -fwd.T)
             E[:n] = self.z[:, None] * (2j * np.sin(0.5 * delta)) * np.exp(0.5j * delta)
         else:
-            self.z = np.exp(1j * self.theta)
-            self.zc = np.conj(self.z)
             E[:n] = self.z[None, :] - self.z[:, None]
         E[n] = self.z
         self.E = E
@@ -167,7 +152,7 @@ def plan_integrals(
     singular: np.ndarray,
     *,
     ratio: float = 0.5,
-    max_panels: int = 400,
+    max_panels: int = 1000,
 ) -> IntegralPlan:
     """March the compound rule of §1.4 for integrals ``∫_{z_b+start}^{z_b+end} F``.
 
@@ -253,9 +238,9 @@ def _nodes(
         fac_j = np.exp(beta_b * np.log(cj))
         # Legendre panel from a prevertex base: the base factor at each node.
         fac_l = np.exp(beta_b * np.log(-d * zc_b))
-    fac = np.where(jacobi[:, None], fac_j, fac_l)
-    fac = np.where(is_pv[:, None], fac, 1.0)
-    W = W * fac
+        fac = np.where(jacobi[:, None], fac_j, fac_l)
+        fac = np.where(is_pv[:, None], fac, 1.0)
+        W = W * fac
     owner = np.repeat(plan.owner, m)
     return owner, np.repeat(base, m), d.ravel(), W.ravel(), P
 
