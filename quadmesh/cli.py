@@ -43,6 +43,13 @@ polygon files: .json {"vertices": [[x, y], ...]}, .csv/.txt (two columns), .geoj
 """
 
 
+def _add_command(sub: argparse._SubParsersAction, name: str, help_: str) -> argparse.ArgumentParser:
+    """A subcommand whose ``--help`` ends with the exit codes and file formats (``_EPILOG``)."""
+    return sub.add_parser(
+        name, help=help_, epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``quadmesh`` command."""
     parser = argparse.ArgumentParser(
@@ -54,12 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser(
-        "mesh",
-        help="mesh a polygon file",
-        epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = _add_command(sub, "mesh", "mesh a polygon file")
     p.add_argument("polygon", type=Path, help="polygon file")
     p.add_argument("-o", "--output", type=Path, required=True, help="mesh file to write")
     p.add_argument("--n", type=int, help="steps per half pentagon side (Lemma 4.1)")
@@ -70,12 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-v", "--verbose", action="store_true", help="print progress to stderr")
     p.set_defaults(func=_cmd_mesh)
 
-    p = sub.add_parser(
-        "check",
-        help="verify a mesh file against a polygon",
-        epilog=_EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    p = _add_command(sub, "check", "verify a mesh file against a polygon")
     p.add_argument("mesh", type=Path, help="mesh file")
     p.add_argument("--polygon", type=Path, required=True, help="polygon file")
     p.add_argument(
@@ -193,6 +190,11 @@ def _cmd_disk_demo(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _exit_code(exc: SystemExit) -> int:
+    """Exit code of an argparse ``SystemExit`` (a non-integer code counts as an input error)."""
+    return int(exc.code) if isinstance(exc.code, int) else EXIT_INPUT
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``quadmesh`` command with ``argv`` (default ``sys.argv[1:]``); return the exit
     code (see the epilog of ``quadmesh --help``)."""
@@ -203,12 +205,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             return bench_main(argv[1:])
         except SystemExit as exc:
-            return int(exc.code) if isinstance(exc.code, int) else EXIT_INPUT
+            return _exit_code(exc)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help or a usage error
-        return int(exc.code) if isinstance(exc.code, int) else EXIT_INPUT
+        return _exit_code(exc)
     try:
         return int(args.func(args))
     except (InputFormatError, PolygonError) as exc:
@@ -220,14 +222,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except QuadmeshError as exc:
         print(f"quadmesh: a mesher stage failed: {exc}", file=sys.stderr)
         return EXIT_STAGE
-    except ValueError as exc:
+    except (ValueError, OSError) as exc:
         print(f"quadmesh: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
     except ImportError as exc:
         print(f"quadmesh: error: a required module is missing ({exc})", file=sys.stderr)
-        return EXIT_INPUT
-    except OSError as exc:
-        print(f"quadmesh: error: {exc}", file=sys.stderr)
         return EXIT_INPUT
 
 

@@ -78,7 +78,7 @@ import numpy as np
 import shapely
 
 from .errors import DecompositionError
-from .polygon import Polygon, validate_polygon
+from .polygon import Polygon, signed_area, validate_polygon
 
 __all__ = [
     "Channel",
@@ -263,13 +263,12 @@ class Channel:
     @property
     def core(self) -> np.ndarray:
         """The core as an (k, 2) array, counter-clockwise."""
-        c = self.core_z
-        return np.column_stack([c.real, c.imag])
+        return _xy(self.core_z)
 
     @property
     def core_area(self) -> float:
         """Area of the polygonised core."""
-        return _signed_area(self.core_z)
+        return signed_area(self.core_z)
 
 
 @dataclass(frozen=True)
@@ -312,12 +311,12 @@ class ThickPiece:
     @property
     def vertices(self) -> np.ndarray:
         """Vertices as an (k, 2) float array."""
-        return np.column_stack([self.z.real, self.z.imag])
+        return _xy(self.z)
 
     @property
     def area(self) -> float:
         """Area of the piece."""
-        return _signed_area(self.z)
+        return signed_area(self.z)
 
 
 @dataclass(frozen=True)
@@ -350,11 +349,6 @@ class Decomposition:
 
 # --------------------------------------------------------------------------------------
 # helpers
-
-
-def _signed_area(z: np.ndarray) -> float:
-    zn = np.roll(z, -1)
-    return 0.5 * float(np.sum(z.real * zn.imag - zn.real * z.imag))
 
 
 def _xy(z: np.ndarray) -> np.ndarray:

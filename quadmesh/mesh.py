@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshVerificationError
+from .geometry import angle_rounding_slack_deg, quad_angles_deg, quad_signed_areas
 from .polygon import Polygon, validate_polygon
 
 __all__ = ["QuadMesh", "QualityReport", "VerificationReport"]
@@ -39,7 +40,6 @@ ANGLE_MIN = 60.0
 ANGLE_MAX = 120.0
 _MAX_EXAMPLES = 5
 _NEXT = np.array([1, 2, 3, 0])
-_PREV = np.array([3, 0, 1, 2])
 
 
 def _fmt_pt(p: complex) -> str:
@@ -257,11 +257,7 @@ class QuadMesh:
         to the edge to the previous one, so it lies in (0°, 360°) and is the interior angle
         of a counter-clockwise quad (a reflex or clockwise corner gives an angle above 180°).
         """
-        e = self._edge_vectors()
-        # at corner k: to_prev = -e[k-1], to_next = e[k]
-        ang = np.angle(-e[:, _PREV] * np.conj(e))
-        ang[ang < 0] += 2 * np.pi
-        return np.degrees(ang, out=ang)
+        return quad_angles_deg(self._z, self.quads)
 
     def _edge_vectors(self) -> np.ndarray:
         """(Q, 4) complex edge vectors: edge k goes from corner k to corner k + 1."""
@@ -274,10 +270,7 @@ class QuadMesh:
         Each quad is taken relative to its first corner, so a quad that is tiny compared
         with its distance from the origin keeps its area's relative precision.
         """
-        c = self._corners()
-        c = c - c[:, :1]
-        cn = c[:, _NEXT]
-        return 0.5 * np.sum(c.real * cn.imag - cn.real * c.imag, axis=1)
+        return quad_signed_areas(self._z, self.quads)
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """Unique undirected edges (E, 2) (smaller index first) and the number of quads of each."""
@@ -316,12 +309,7 @@ class QuadMesh:
         reads slightly outside the bound when the quad is tiny compared with its distance from
         the origin; this slack accepts exactly that and nothing more (8ε·|z|/ℓ, a 4× margin).
         """
-        q = self.z[self.quads]
-        edge = np.abs(np.roll(q, -1, axis=1) - q).min(axis=1)
-        size = np.abs(q).max(axis=1)
-        with np.errstate(divide="ignore"):
-            rounding = np.degrees(8.0 * np.finfo(float).eps * size / edge)
-        return (angle_tol + rounding)[:, None]
+        return (angle_tol + angle_rounding_slack_deg(self._z, self.quads))[:, None]
 
     def quality(
         self, polygon: object | None = None, *, angle_tol: float = ANGLE_TOL_DEG

@@ -32,6 +32,7 @@ from .errors import (
     MeshVerificationError,
     ThinPartError,
 )
+from .geometry import quad_angles_deg
 from .polygon import Polygon, validate_polygon
 from .result import MeshOptions, MeshResult, ThickPieceResult, ThinPartResult
 
@@ -80,14 +81,6 @@ class _Assembler:
         if not self.quads:
             return np.zeros((0, 4), np.int64), np.zeros(0, np.int8)
         return np.concatenate(self.quads), np.concatenate(self.source)
-
-
-def quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Interior corner angles (degrees) of the quads with complex vertices ``z``."""
-    q = z[quads]
-    prev = np.roll(q, 1, axis=1) - q
-    nxt = np.roll(q, -1, axis=1) - q
-    return np.degrees(np.abs(np.angle(prev / nxt)))
 
 
 def _arc_gaps(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

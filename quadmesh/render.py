@@ -333,12 +333,25 @@ def line_part(
     closed: bool = False,
     label: str = "",
     disk: bool = False,
+    disk_scale: float = 1.0,
 ) -> LayerPart:
-    """A part drawing complex polylines (``disk``: keep their disk coordinates)."""
+    """A part drawing complex polylines (``disk``: keep their disk coordinates; lines drawn
+    ``disk_scale`` times outside their disk points, as arcs just outside T, keep
+    ``points / disk_scale``)."""
     mesh = _polylines_polydata(lines, closed=closed)
-    z = np.concatenate([np.ravel(l_) for l_ in lines]) if disk and len(lines) else None
+    z = None
+    if disk and len(lines):
+        z = np.concatenate([np.ravel(l_) for l_ in lines])
+        if disk_scale != 1.0:
+            z = z / disk_scale
     return LayerPart(
-        mesh, color=color, line_width=line_width, style="wireframe", label=label, disk_z=z
+        mesh,
+        color=color,
+        line_width=line_width,
+        style="wireframe",
+        label=label,
+        disk_z=z,
+        disk_scale=disk_scale,
     )
 
 
@@ -360,13 +373,8 @@ def points_part(
 def unit_circle_part(radius: float = 1.0) -> LayerPart:
     """The unit circle T = ∂D as a thin black closed line (drawn under every disk view)."""
     ring = _arc_points(0.0, 2 * np.pi, radius)[:-1]
-    return LayerPart(
-        _polylines_polydata([ring], closed=True),
-        color="black",
-        line_width=1.5,
-        style="wireframe",
-        label="unit circle",
-        disk_z=ring,
+    return line_part(
+        [ring], color="black", line_width=1.5, closed=True, label="unit circle", disk=True
     )
 
 
@@ -416,16 +424,8 @@ def polygon_layer(z: np.ndarray, closed: bool = True, color: str = "black") -> L
                 LayerPart(_filled_polygons([z]), color="#e8e8e8", opacity=0.6, label="fill")
             )
     parts += [
-        LayerPart(
-            _polylines_polydata([z], closed=closed and z.size >= 3),
-            color=color,
-            line_width=3.0,
-            style="wireframe",
-            label="outline",
-        ),
-        LayerPart(
-            _points_polydata(z), color=color, style="points", point_size=8.0, label="vertices"
-        ),
+        line_part([z], color=color, line_width=3.0, closed=closed and z.size >= 3, label="outline"),
+        points_part(z, color=color, point_size=8.0, label="vertices"),
     ]
     return LayerGeometry("polygon", "plane", [p for p in parts if p.mesh.n_points > 0])
 
@@ -441,15 +441,7 @@ def _layer_thick_pieces(result: Any) -> list[LayerPart]:
         )
         fill.cell_data["piece_rgb"] = palette[fill.cell_data["polygon"] % len(PIECE_PALETTE)]
         parts.append(LayerPart(fill, scalars="piece_rgb", opacity=0.55, label="fill"))
-    parts.append(
-        LayerPart(
-            _polylines_polydata(polys, closed=True),
-            color="#2f4f4f",
-            line_width=2.0,
-            style="wireframe",
-            label="outlines",
-        )
-    )
+    parts.append(line_part(polys, color="#2f4f4f", line_width=2.0, closed=True, label="outlines"))
     return parts
 
 
@@ -498,15 +490,7 @@ def _crosscut_lines(result: Any) -> list[np.ndarray]:
 
 def _layer_crosscuts(result: Any) -> list[LayerPart]:
     lines = _crosscut_lines(result)
-    return [
-        LayerPart(
-            _polylines_polydata(lines),
-            color=LAYER_COLORS["crosscuts"],
-            line_width=3.0,
-            style="wireframe",
-            label="crosscuts",
-        )
-    ]
+    return [line_part(lines, color=LAYER_COLORS["crosscuts"], line_width=3.0, label="crosscuts")]
 
 
 def _kind_parts(z: np.ndarray, quads: np.ndarray, kinds: np.ndarray, opacity: float) -> list:
@@ -672,16 +656,8 @@ def build_disk_layer(
     geo = LayerGeometry(name, "disk")
     if name == "tessellation":
         lines = _tessellation_lines(tessellation_depth, tessellation_center)
-        pts = np.concatenate(lines)
         geo.parts.append(
-            LayerPart(
-                _polylines_polydata(lines),
-                color=LAYER_COLORS["tessellation"],
-                line_width=1.0,
-                style="wireframe",
-                label="tile edges",
-                disk_z=pts,
-            )
+            line_part(lines, color=LAYER_COLORS["tessellation"], label="tile edges", disk=True)
         )
         return geo
     if disk is None:
@@ -719,39 +695,30 @@ def build_disk_layer(
     else:  # prevertices
         arcs_j = [_arc_points(s, ln, 1.045) for s, ln in np.asarray(disk.pieces.J).reshape(-1, 2)]
         geo.parts.append(
-            LayerPart(
-                _polylines_polydata(arcs_j),
-                color="#2ca02c",
-                line_width=4.0,
-                style="wireframe",
-                label="J arcs",
-                disk_z=np.concatenate(arcs_j) / 1.045 if arcs_j else None,
-                disk_scale=1.045,
+            line_part(
+                arcs_j, color="#2ca02c", line_width=4.0, label="J arcs", disk=True, disk_scale=1.045
             )
         )
         if intervals is not None and len(intervals):
             arcs_i = [_arc_points(s, ln, 1.02) for s, ln in np.asarray(intervals).reshape(-1, 2)]
             geo.parts.append(
-                LayerPart(
-                    _polylines_polydata(arcs_i),
+                line_part(
+                    arcs_i,
                     color="#d62728",
                     line_width=5.0,
-                    style="wireframe",
                     label="I arcs",
-                    disk_z=np.concatenate(arcs_i) / 1.02,
+                    disk=True,
                     disk_scale=1.02,
                 )
             )
         if prevertices is not None and len(prevertices):
-            w = np.asarray(prevertices, dtype=np.complex128)
             geo.parts.append(
-                LayerPart(
-                    _points_polydata(w),
+                points_part(
+                    prevertices,
                     color=LAYER_COLORS["prevertices"],
-                    style="points",
                     point_size=9.0,
                     label="prevertices",
-                    disk_z=w,
+                    disk=True,
                 )
             )
     geo.parts = [p for p in geo.parts if p.mesh.n_points > 0]

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QTimer
 
-pytestmark = pytest.mark.gui
+from tests.helpers import L_SHAPE, require_pipeline
 
-L_SHAPE = np.array([0, 2, 2 + 1j, 1 + 1j, 1 + 2j, 2j])
+pytestmark = pytest.mark.gui
 
 
 def _send(widget, etype, pos, button, buttons):
@@ -61,16 +61,6 @@ def pixel_variance(path) -> float:
     return float(arr[:, : 3 * img.width()].astype(float).var())
 
 
-def _pipeline_or_skip() -> None:
-    try:
-        import quadmesh.disk as disk
-
-        disk.disk_mesh  # noqa: B018
-        from quadmesh.pipeline import mesh_polygon  # noqa: F401
-    except (ImportError, AttributeError) as exc:
-        pytest.skip(f"pipeline not available yet: {exc}")
-
-
 _MESHED: dict[str, object] = {}
 
 
@@ -78,7 +68,7 @@ _MESHED: dict[str, object] = {}
 def meshed(main_window, qtbot):
     """The window after meshing the L-shape through the worker thread (the first time; later
     tests show the same MeshResult again to keep the GUI suite fast)."""
-    _pipeline_or_skip()
+    require_pipeline()
     win = main_window
     win.set_polygon(L_SHAPE)
     if "result" in _MESHED:
@@ -338,7 +328,7 @@ def test_mesh_error_is_shown_and_polygon_kept(main_window, qtbot):
 
 
 def test_cancel_real_mesher(main_window, qtbot):
-    _pipeline_or_skip()
+    require_pipeline()
     win = main_window
     win.set_polygon(L_SHAPE)
     with qtbot.waitSignal(win.runner.cancelled, timeout=60000):

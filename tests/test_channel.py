@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -11,25 +10,10 @@ import pytest
 from quadmesh.errors import ThinPartError
 from quadmesh.thin import Walls, default_crosscut_count, mesh_channel
 from quadmesh.thin.mesh import polygon_area, quad_angles_deg, quad_signed_areas, unpaired_edges
+from tests.helpers import chain_edges, graded_u, uneven_u
 
-L_PENT = 1.0613
 ORIGIN = 0.5 - 0.2j
 DIR = complex(np.exp(0.4j))
-
-
-def graded_u(n_side: int = 4, dstep: float = 0.25, dmax: float = math.log(32) + 2) -> np.ndarray:
-    """Polar fractions of a geodesic image's vertices (see tests/test_parabolic.py)."""
-    s_pent = np.linspace(1.5 * L_PENT, -1.5 * L_PENT, 3 * n_side + 1)
-    d = np.arange(dstep, dmax + 1e-9, dstep)
-    s = np.concatenate([(1.5 * L_PENT + d)[::-1], s_pent, -(1.5 * L_PENT + d)])
-    return np.concatenate([[0.0], 0.5 - np.arctan(np.sinh(s)) / np.pi, [1.0]])
-
-
-def uneven_u(n_pts: int, seed: float = 0.0) -> np.ndarray:
-    k = np.arange(n_pts - 1)
-    w = 1.0 + 0.3 * np.sin(2 * np.pi * 3 * k / (n_pts - 1) + 0.7 + seed)
-    u = np.concatenate([[0.0], np.cumsum(w)])
-    return u / u[-1]
 
 
 def wedge_crosscuts(
@@ -52,10 +36,7 @@ def check_channel(mesh, g1: np.ndarray, g2: np.ndarray) -> tuple[float, float]:
     assert np.all(z[mesh.gamma1_index] == g1) and np.all(z[mesh.gamma2_index] == g2)
     free, ok = unpaired_edges(q)
     assert ok
-    allowed = set()
-    for chain in (mesh.wall1, mesh.wall2, mesh.gamma1_index, mesh.gamma2_index):
-        for a, b in itertools.pairwise(chain):
-            allowed |= {(int(a), int(b)), (int(b), int(a))}
+    allowed = chain_edges(mesh.wall1, mesh.wall2, mesh.gamma1_index, mesh.gamma2_index)
     assert {tuple(e) for e in free.tolist()} <= allowed
     assert len(free) == 2 * (len(g1) - 1) + 2 * (mesh.n_intermediate + 1)
     areas = quad_signed_areas(z, q)

@@ -7,19 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from quadmesh.cli import EXIT_INPUT, EXIT_INVALID, EXIT_OK, main
 from quadmesh.io import read_mesh, write_mesh, write_polygon
 from quadmesh.mesh import QuadMesh
-
-LSHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
-
-
-def lshape_mesh() -> QuadMesh:
-    verts = np.array([[0, 0], [1, 0], [2, 0], [0, 1], [1, 1], [2, 1], [0, 2], [1, 2]], float)
-    return QuadMesh(verts, np.array([[0, 1, 4, 3], [1, 2, 5, 4], [3, 4, 7, 6]]))
+from tests.helpers import LSHAPE, lshape_mesh
 
 
 @pytest.fixture

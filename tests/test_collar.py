@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -12,8 +11,8 @@ from quadmesh.errors import ThinPartError
 from quadmesh.thin import Walls, mesh_channel, mesh_vertex_sector
 from quadmesh.thin.collar import conformal_collar, vertex_walls
 from quadmesh.thin.mesh import polygon_area, quad_angles_deg, quad_signed_areas, unpaired_edges
+from tests.helpers import chain_edges, geodesic_arclengths
 
-L_PENT = 1.0613  # side of the pentagon tessellation (hyperbolic length)
 APEX = 0.3 + 0.2j
 DIR = complex(np.exp(0.7j))
 THETAS = [5, 30, 59, 60, 61, 90, 119, 120, 121, 180, 240, 300, 359]
@@ -27,9 +26,7 @@ def geodesic_points(e: float, n_side: int = 4, dstep: float = 0.25) -> np.ndarra
     s in [-1.5L, 1.5L], rays at s = ±(1.5L + d_m), d_m = dstep, ... <= log 32 + 2, and the two
     endpoints on the real axis (as the pipeline places crosscut vertices).
     """
-    s_p = np.linspace(1.5 * L_PENT, -1.5 * L_PENT, 3 * n_side + 1)
-    d = np.arange(dstep, math.log(32) + 2 + 1e-9, dstep)
-    s = np.concatenate([(1.5 * L_PENT + d)[::-1], s_p, -(1.5 * L_PENT + d)])
+    s = geodesic_arclengths(n_side, dstep)
     zeta = e + np.tanh(s) + 1j / np.cosh(s)
     return np.concatenate([[1.0 + e + 0j], zeta, [e - 1.0 + 0j]])
 
@@ -70,12 +67,8 @@ def check_union(verts, quads, chains, region_area) -> None:
     """Conforming, unpaired edges exactly the boundary chains, positive quads, exact area."""
     free, ok = unpaired_edges(quads)
     assert ok, "an edge is used twice with the same orientation"
-    allowed = set()
-    n_bnd = 0
-    for chain in chains:
-        for a, b in itertools.pairwise(chain):
-            allowed |= {(int(a), int(b)), (int(b), int(a))}
-            n_bnd += 1
+    allowed = chain_edges(*chains)
+    n_bnd = sum(len(chain) - 1 for chain in chains)
     free_set = {tuple(e) for e in free.tolist()}
     assert free_set <= allowed and len(free) == n_bnd
     areas = quad_signed_areas(verts, quads)

@@ -21,12 +21,6 @@ def mesh(request: pytest.FixtureRequest) -> DiskMesh:
     return disk_mesh(iv, A=A, n=2)
 
 
-def _local_areas(v: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Signed areas with coordinates relative to each quad's first vertex (tiny quads near T)."""
-    z = v[q] - v[q[:, :1]]
-    return 0.5 * np.sum((np.conj(z) * np.roll(z, -1, axis=1)).imag, axis=1)
-
-
 def _undirected_edges(quads: np.ndarray) -> np.ndarray:
     e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2)
     return np.unique(np.sort(e, axis=1), axis=0)
@@ -98,13 +92,19 @@ def test_triangle_maps(mesh: DiskMesh) -> None:
         assert np.all(np.isin(t.inner_vertices, mesh.quads[mesh.inner]))
 
 
+def _check_disk_mesh(D: DiskMesh) -> None:
+    """Conforming, every quad positive (areas relative to each quad's first corner, so tiny
+    quads near T keep their precision), every angle outside the inner triangles in [60, 120]."""
+    check_conformity(D.quads, D.vertices.size)
+    assert np.all(quad_signed_areas(D.vertices, D.quads) > 0)
+    ang = chord_angles(D.vertices, D.quads)
+    assert ang[~D.inner].min() >= 60.0 and ang[~D.inner].max() <= 120.0
+
+
 def test_tiny_and_many_intervals() -> None:
     iv = np.array([[0.5, 3e-9], [0.5 + 2e-6, 1e-9], [3.0, 1e-7], [4.0, 0.01]])
     D = disk_mesh(iv, A=100.0, n=2)
-    check_conformity(D.quads, D.vertices.size)
-    assert np.all(_local_areas(D.vertices, D.quads) > 0)
-    ang = chord_angles(D.vertices, D.quads)
-    assert ang[~D.inner].min() >= 60.0 and ang[~D.inner].max() <= 120.0
+    _check_disk_mesh(D)
 
 
 def test_bad_arguments() -> None:
@@ -140,10 +140,7 @@ def test_crowded_intervals_regression_glyph_s() -> None:
     iv = _crowded_intervals(15)
     assert 4.0 * iv[:, 1].min() > MIN_EXPANDED_ARC and iv[:, 1].min() < 1e-10
     D = disk_mesh(iv, A=16.0, n=2, depth_step=0.25, inner_height=1.0, depth_growth=2.0)
-    check_conformity(D.quads, D.vertices.size)
-    assert np.all(_local_areas(D.vertices, D.quads) > 0)
-    ang = chord_angles(D.vertices, D.quads)
-    assert ang[~D.inner].min() >= 60.0 and ang[~D.inner].max() <= 120.0
+    _check_disk_mesh(D)
     iv = _crowded_intervals(16)
     with pytest.raises(DiskConstructionError, match="resolution limit"):
         disk_mesh(iv, A=16.0, n=2)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -11,30 +10,10 @@ import pytest
 from quadmesh.errors import ThinPartError
 from quadmesh.thin import KIND_NAMES, mesh2_local, mesh_vertex_sector, split_count
 from quadmesh.thin.mesh import polygon_area, quad_angles_deg, quad_signed_areas, unpaired_edges
+from tests.helpers import chain_edges, graded_u, uneven_u
 
 THETAS = [5, 15, 30, 45, 59, 60, 61, 90, 119, 120, 121, 150, 179, 181, 200, 239, 240, 241, 300, 359]
-L_PENT = 1.0613  # side of the pentagon tessellation (hyperbolic length)
 CONN = KIND_NAMES.index("connection")
-
-
-def graded_u(n_side: int = 4, dstep: float = 0.25, dmax: float = math.log(32) + 2) -> np.ndarray:
-    """Fractions u of theta of the vertices of a geodesic's image (from side 1).
-
-    3*n_side+1 pentagon-edge vertices at hyperbolic distance s in [-1.5L, 1.5L] from the top
-    point, rays at s = ±(1.5L + d_m), and the two ideal endpoints; u = 1/2 - arctan(sinh s)/π.
-    """
-    s_pent = np.linspace(1.5 * L_PENT, -1.5 * L_PENT, 3 * n_side + 1)
-    d = np.arange(dstep, dmax + 1e-9, dstep)
-    s = np.concatenate([(1.5 * L_PENT + d)[::-1], s_pent, -(1.5 * L_PENT + d)])
-    return np.concatenate([[0.0], 0.5 - np.arctan(np.sinh(s)) / np.pi, [1.0]])
-
-
-def uneven_u(n_pts: int, seed: float = 0.0) -> np.ndarray:
-    """Smoothly uneven spacing (±30 %) of n_pts fractions from 0 to 1 (THIN.md sweep)."""
-    k = np.arange(n_pts - 1)
-    w = 1.0 + 0.3 * np.sin(2 * np.pi * 3 * k / (n_pts - 1) + 0.7 + seed)
-    u = np.concatenate([[0.0], np.cumsum(w)])
-    return u / u[-1]
 
 
 def make_gamma(
@@ -66,10 +45,7 @@ def check_sector(mesh, apex: complex, g: np.ndarray) -> tuple[float, float, floa
     assert np.all(z[mesh.gamma_index] == g)
     free, ok = unpaired_edges(q)
     assert ok, "an edge is used twice with the same orientation"
-    allowed = set()
-    for chain in (mesh.side1, mesh.side2, mesh.gamma_index):
-        for a, b in itertools.pairwise(chain):
-            allowed |= {(int(a), int(b)), (int(b), int(a))}
+    allowed = chain_edges(mesh.side1, mesh.side2, mesh.gamma_index)
     free_set = {tuple(e) for e in free.tolist()}
     assert free_set <= allowed
     assert len(free_set) == len(mesh.side1) + len(mesh.side2) + len(g) - 3

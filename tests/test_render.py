@@ -11,8 +11,8 @@ pv = pytest.importorskip("pyvista")
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 from quadmesh import render  # noqa: E402
+from tests.helpers import L_SHAPE, require_pipeline  # noqa: E402
 
-L_SHAPE = np.array([0, 2, 2 + 1j, 1 + 1j, 1 + 2j, 2j])
 INTERVALS = np.array([[0.3, 0.02], [2.0, 0.05], [4.0, 0.01]])
 
 
@@ -24,13 +24,9 @@ def _png_variance(path) -> float:
 
 @pytest.fixture(scope="module")
 def result():
-    try:
-        import quadmesh.disk as disk
+    require_pipeline()
+    from quadmesh.pipeline import mesh_polygon
 
-        disk.disk_mesh  # noqa: B018
-        from quadmesh.pipeline import mesh_polygon
-    except (ImportError, AttributeError) as exc:
-        pytest.skip(f"pipeline not available yet: {exc}")
     return mesh_polygon(L_SHAPE)
 
 

@@ -5,9 +5,10 @@ Lemma 4.1, the model Carleson quadrilateral of Lemma 5.1, ...).  Every piece of 
 decomposition is an isometric (or Möbius) image of its model, so the model mesh is built once
 and moved by stacked isometries (:func:`place_mesh`).
 
-Also here: :func:`check_conformity` (each interior edge in exactly two quads, with opposite
-orientations; returns the boundary edges), :func:`chord_angles` (interior angles of the
-straight-edged quadrilaterals, in degrees) and :func:`quad_signed_areas`.
+Re-exported here from :mod:`quadmesh.geometry`: :func:`check_conformity` (each interior edge in
+exactly two quads, with opposite orientations; returns the boundary edges), :func:`chord_angles`
+(= :func:`quadmesh.geometry.quad_angles_deg`, interior angles of the straight-edged
+quadrilaterals, in degrees) and :func:`quad_signed_areas`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import MeshVerificationError
+from ..geometry import check_conformity, quad_signed_areas
+from ..geometry import quad_angles_deg as chord_angles
 from ..hyperbolic import Isometry
 
 __all__ = [
@@ -78,102 +80,6 @@ class CanonicalMesh:
     def side_points(self, name: str) -> NDArray[np.complex128]:
         """Positions of the vertices of side ``name``, in order."""
         return self.vertices[self.sides[name]]
-
-
-def _edges(quads: IntArray) -> IntArray:
-    """Directed edges ``(4Q, 2)`` of the quads, quad by quad, in the order 01, 12, 23, 30."""
-    q = np.asarray(quads, dtype=np.int64)
-    return np.stack([q, np.roll(q, -1, axis=1)], axis=-1).reshape(-1, 2)
-
-
-def check_conformity(quads: ArrayLike, n_vertices: int | None = None) -> IntArray:
-    """Check that a quad mesh is conforming and consistently oriented; return its boundary edges.
-
-    Conditions: no quad repeats a vertex; no directed edge occurs twice (which would mean two quads
-    with the same orientation across an edge, or a duplicated quad); every undirected edge belongs
-    to one quad (boundary) or two quads (interior, then with opposite orientations); every vertex
-    index is used (if ``n_vertices`` is given).
-
-    Returns:
-        int array ``(B, 2)`` of the boundary edges, directed as in their quad (so for a CCW mesh of
-        a disk-like region they run counter-clockwise around the boundary).
-
-    Raises:
-        MeshVerificationError: naming the first violated condition.
-    """
-    q = np.asarray(quads, dtype=np.int64)
-    if q.ndim != 2 or q.shape[1] != 4:
-        raise MeshVerificationError(f"quads must have shape (Q, 4), got {q.shape}")
-    srt = np.sort(q, axis=1)
-    if np.any(srt[:, 1:] == srt[:, :-1]):
-        bad = int(np.nonzero(np.any(srt[:, 1:] == srt[:, :-1], axis=1))[0][0])
-        raise MeshVerificationError(f"quad {bad} repeats a vertex: {q[bad].tolist()}")
-    e = _edges(q)
-    nv = int(q.max()) + 1 if n_vertices is None else int(n_vertices)
-    directed = e[:, 0] * nv + e[:, 1]
-    uniq, cnt = np.unique(directed, return_counts=True)
-    if np.any(cnt > 1):
-        k = int(uniq[cnt > 1][0])
-        raise MeshVerificationError(
-            f"directed edge ({k // nv}, {k % nv}) occurs {int(cnt[cnt > 1][0])} times: "
-            "quads overlap or are inconsistently oriented"
-        )
-    lo = np.minimum(e[:, 0], e[:, 1])
-    hi = np.maximum(e[:, 0], e[:, 1])
-    und = lo * nv + hi
-    uniq, inv, cnt = np.unique(und, return_inverse=True, return_counts=True)
-    if np.any(cnt > 2):
-        k = int(uniq[cnt > 2][0])
-        raise MeshVerificationError(
-            f"edge ({k // nv}, {k % nv}) is shared by {int(cnt[cnt > 2][0])} quads"
-        )
-    if n_vertices is not None:
-        used = np.zeros(nv, dtype=bool)
-        used[q.ravel()] = True
-        if not np.all(used):
-            raise MeshVerificationError(
-                f"{int((~used).sum())} vertices are not used by any quad "
-                f"(first: {int(np.nonzero(~used)[0][0])})"
-            )
-    return e[cnt[inv] == 1]
-
-
-def _corners(vertices: ArrayLike, quads: ArrayLike) -> NDArray[np.complex128]:
-    """Corner positions ``(..., Q, 4)``: ``vertices (V,)`` or ``(k, V)`` with ``quads (Q, 4)`` or
-    stacked ``(k, Q, 4)`` (copy ``i`` of the quads indexes copy ``i`` of the vertices)."""
-    v = np.asarray(vertices, dtype=np.complex128)
-    q = np.asarray(quads, dtype=np.int64)
-    if q.ndim == 3:
-        if v.ndim != 2 or v.shape[0] != q.shape[0]:
-            raise ValueError("stacked quads (k, Q, 4) need stacked vertices (k, V)")
-        return np.take_along_axis(v, q.reshape(q.shape[0], -1), axis=1).reshape(q.shape)
-    return v[..., q]
-
-
-def quad_signed_areas(vertices: ArrayLike, quads: ArrayLike) -> NDArray[np.float64]:
-    """Signed Euclidean areas of the straight-edged quads (positive = counter-clockwise).
-
-    ``vertices`` may be ``(V,)`` or stacked ``(k, V)`` (with ``quads`` ``(Q, 4)`` or stacked
-    ``(k, Q, 4)``); the result is ``(Q,)`` or ``(k, Q)``.
-    """
-    z = _corners(vertices, quads)
-    w = np.roll(z, -1, axis=-1)
-    return 0.5 * np.sum((np.conj(z) * w).imag, axis=-1)
-
-
-def chord_angles(vertices: ArrayLike, quads: ArrayLike) -> NDArray[np.float64]:
-    """Interior angles (degrees) of the straight-edged quads on the mesh vertices.
-
-    The angle at corner ``b`` with predecessor ``a`` and successor ``c`` is the counter-clockwise
-    turn from ``c−b`` to ``a−b``, in ``[0, 360)``; a convex CCW quad has all four in (0, 180).
-    ``quads`` may be ``(Q, 4)`` or stacked ``(k, Q, 4)`` matching stacked ``vertices (k, V)``.
-    Returns an array of shape ``quads.shape``.
-    """
-    z = _corners(vertices, quads)
-    a = np.roll(z, 1, axis=-1)
-    c = np.roll(z, -1, axis=-1)
-    ang = np.angle((a - z) / (c - z))
-    return np.degrees(np.mod(ang, 2.0 * np.pi))
 
 
 def orient_quads(quads: ArrayLike, reverse: ArrayLike) -> IntArray:

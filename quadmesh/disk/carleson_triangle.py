@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DiskConstructionError
+from ..geometry import quad_angles_deg as chord_angles
 from . import circles as gc
 
 __all__ = [
@@ -751,13 +752,3 @@ def model_triangle_mesh(depths: np.ndarray, h: float = 1.0) -> ModelTriangleMesh
         depths=d.copy(),
         landmarks=lm,
     )
-
-
-def chord_angles(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Interior angles (degrees, in (0, 360)) of the counter-clockwise straight-edged quadrilaterals
-    ``vertices[quads]``, shape (Q, 4); reflex corners give angles above 180."""
-    z = np.asarray(vertices)[np.asarray(quads)]
-    prev = np.roll(z, 1, axis=1) - z
-    nxt = np.roll(z, -1, axis=1) - z
-    # Counter-clockwise quads: the interior angle turns from the next edge to the previous one.
-    return np.degrees(np.mod(np.angle(prev / nxt), 2.0 * np.pi))

@@ -442,6 +442,29 @@ class TileSet:
         return Isometry(self._M.copy(), self._sigma.copy())
 
 
+def _add_tiles(ts: TileSet, g: Isometry) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Store the tiles ``g`` (stacked) in ``ts`` keyed by their centres ``g(0)``; returns
+    :meth:`TileSet.add_batch`'s ``(index, new)``."""
+    return ts.add_batch(g.M, g.sigma, g.apply_rows(np.zeros(1))[:, 0])
+
+
+def _reflect_across_edges(
+    ts: TileSet, g: Isometry, rows: NDArray[np.int64], ks: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Reflect tile ``g[rows[i]]`` across its edge ``ks[i]`` (the neighbour across that edge of
+    the T5 tessellation, §2) and store the images in ``ts``.
+
+    Returns ``neighbour`` (len(g), 5): the tile index across each reflected edge, -1 elsewhere;
+    and the indices of the tiles that were new.
+    """
+    nbr = np.full((len(g), 5), -1, dtype=np.int64)
+    if rows.size == 0:
+        return nbr, np.zeros(0, dtype=np.int64)
+    t, is_new = _add_tiles(ts, g[rows] @ REFLECTIONS[ks])
+    nbr[rows, ks] = t
+    return nbr, t[is_new]
+
+
 StopRule = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.int64]]
 
 
@@ -457,8 +480,7 @@ def grow_tiles(
     ``seed_index`` (len(seeds),): the tile index of every seed.
     """
     ts = TileSet()
-    seed_c = seeds.apply_rows(np.zeros(1))[:, 0]
-    seed_index, is_new = ts.add_batch(seeds.M, seeds.sigma, seed_c)
+    seed_index, is_new = _add_tiles(ts, seeds)
     frontier = np.unique(seed_index[is_new])
     nbr_rows: list[NDArray[np.int64]] = []
     lab_rows: list[NDArray[np.int64]] = []
@@ -468,15 +490,7 @@ def grow_tiles(
         s, ell = tile_edge_far_arcs(g)
         lab = stop(s.ravel(), ell.ravel()).reshape(-1, 5)
         rows, ks = np.nonzero(lab < 0)
-        nbr = np.full((frontier.size, 5), -1, dtype=np.int64)
-        if rows.size:
-            nb = g[rows] @ REFLECTIONS[ks]
-            nc = nb.apply_rows(np.zeros(1))[:, 0]
-            t, is_new = ts.add_batch(nb.M, nb.sigma, nc)
-            nbr[rows, ks] = t
-            new_frontier = t[is_new]
-        else:
-            new_frontier = np.zeros(0, dtype=np.int64)
+        nbr, new_frontier = _reflect_across_edges(ts, g, rows, ks)
         nbr_rows.append(nbr)
         lab_rows.append(lab)
         row_of.append(frontier)
@@ -520,14 +534,7 @@ def generate_tiles(
             allowed &= diam >= min_diameter
         rows = np.repeat(np.nonzero(allowed)[0], 5)
         ks = np.tile(np.arange(5), int(allowed.sum()))
-        nbr = np.full((frontier.size, 5), -1, dtype=np.int64)
-        new = np.zeros(0, dtype=np.int64)
-        if rows.size:
-            nb = g[rows] @ REFLECTIONS[ks]
-            nc = nb.apply_rows(np.zeros(1))[:, 0]
-            t, is_new = ts.add_batch(nb.M, nb.sigma, nc)
-            nbr[rows, ks] = t
-            new = t[is_new]
+        nbr, new = _reflect_across_edges(ts, g, rows, ks)
         nbr_rows.append(nbr)
         row_of.append(frontier)
         frontier = new

@@ -6,78 +6,9 @@ endpoints ``(p, q)`` oriented ``p→q``; isometries are :class:`Isometry` pairs 
 single or stacked.  All functions are vectorised over numpy arrays.
 """
 
-from .geodesic import (
-    distance,
-    distance_h,
-    einstein_midpoint,
-    from_klein,
-    geodesic_circle,
-    geodesic_distance,
-    geodesic_endpoints_through,
-    geodesic_top_point,
-    intersect_geodesics,
-    perpendicular_geodesic,
-    point_towards,
-    reflect,
-    reflection,
-    side_of_geodesic,
-    tangent_direction,
-    to_klein,
-)
-from .hypercycle import (
-    geodesic_coordinates,
-    hypercycle_circle,
-    hypercycle_frame,
-    hypercycle_point,
-)
-from .isometry import (
-    CAYLEY_D_TO_H,
-    CAYLEY_H_TO_D,
-    Isometry,
-    apply_isometries,
-    cayley_d_to_h,
-    cayley_h_to_d,
-    disk_automorphism,
-    disk_automorphism_inverse,
-    mobius_apply,
-    mobius_from_points,
-    normalize_matrix,
-    phi,
-    phi_inv,
-)
+from . import geodesic, hypercycle, isometry
+from .geodesic import *  # noqa: F403  (names listed in geodesic.__all__)
+from .hypercycle import *  # noqa: F403
+from .isometry import *  # noqa: F403
 
-__all__ = [
-    "CAYLEY_D_TO_H",
-    "CAYLEY_H_TO_D",
-    "Isometry",
-    "apply_isometries",
-    "cayley_d_to_h",
-    "cayley_h_to_d",
-    "disk_automorphism",
-    "disk_automorphism_inverse",
-    "distance",
-    "distance_h",
-    "einstein_midpoint",
-    "from_klein",
-    "geodesic_circle",
-    "geodesic_coordinates",
-    "geodesic_distance",
-    "geodesic_endpoints_through",
-    "geodesic_top_point",
-    "hypercycle_circle",
-    "hypercycle_frame",
-    "hypercycle_point",
-    "intersect_geodesics",
-    "mobius_apply",
-    "mobius_from_points",
-    "normalize_matrix",
-    "perpendicular_geodesic",
-    "phi",
-    "phi_inv",
-    "point_towards",
-    "reflect",
-    "reflection",
-    "side_of_geodesic",
-    "tangent_direction",
-    "to_klein",
-]
+__all__ = sorted([*geodesic.__all__, *hypercycle.__all__, *isometry.__all__])

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .geodesic import geodesic_top_point
+from .geodesic import _unit, geodesic_top_point
 from .isometry import ComplexArray, Isometry
 
 FloatArray = NDArray[np.float64]
@@ -28,18 +28,22 @@ __all__ = [
 ]
 
 
+def _frame_parameters(
+    a: ArrayLike, b: ArrayLike
+) -> tuple[ComplexArray, ComplexArray, ComplexArray]:
+    """Unit endpoints ``a, b`` and the factor ``λ = i(t−b)/(t−a)`` of the frame Φ of ``(a, b)``."""
+    a, b = _unit(a), _unit(b)
+    t = geodesic_top_point(a, b)
+    return a, b, 1j * (t - b) / (t - a)
+
+
 def hypercycle_frame(a: ArrayLike, b: ArrayLike) -> Isometry:
     """The Möbius frame Φ: D→H of the geodesic ``(a, b)``: ``a ↦ 0``, ``b ↦ ∞``, top point ↦ ``i``.
 
     Returned as an orientation-preserving :class:`Isometry` pair (a stack if ``a, b`` are arrays);
     ``Φ.inverse()`` maps H back to D.  Matrix ``[[λ, −λa], [1, −b]]``, ``λ = i(t−b)/(t−a)``.
     """
-    a = np.asarray(a, dtype=np.complex128)
-    b = np.asarray(b, dtype=np.complex128)
-    a = a / np.abs(a)
-    b = b / np.abs(b)
-    t = geodesic_top_point(a, b)
-    lam = 1j * (t - b) / (t - a)
+    a, b, lam = _frame_parameters(a, b)
     M = np.empty((*a.shape, 2, 2), dtype=np.complex128)
     M[..., 0, 0] = lam
     M[..., 0, 1] = -lam * a
@@ -52,12 +56,7 @@ def hypercycle_frame(a: ArrayLike, b: ArrayLike) -> Isometry:
 
 def _frame_inverse_apply(a: ArrayLike, b: ArrayLike, zeta: ArrayLike) -> ComplexArray:
     """Φ⁻¹(ζ) for the frame of ``(a, b)``, all arguments broadcast."""
-    a = np.asarray(a, dtype=np.complex128)
-    b = np.asarray(b, dtype=np.complex128)
-    a = a / np.abs(a)
-    b = b / np.abs(b)
-    t = geodesic_top_point(a, b)
-    lam = 1j * (t - b) / (t - a)
+    a, b, lam = _frame_parameters(a, b)
     zeta = np.asarray(zeta, dtype=np.complex128)
     # ζ = λ(z−a)/(z−b)  ⇔  z = (bζ − λa)/(ζ − λ)
     return (b * zeta - lam * a) / (zeta - lam)
@@ -80,12 +79,7 @@ def geodesic_coordinates(a: ArrayLike, b: ArrayLike, z: ArrayLike) -> tuple[Floa
 
     ``s = log|Φ(z)|`` and ``d = arcsinh(tan(arg Φ(z) − π/2))``.
     """
-    a = np.asarray(a, dtype=np.complex128)
-    b = np.asarray(b, dtype=np.complex128)
-    a = a / np.abs(a)
-    b = b / np.abs(b)
-    t = geodesic_top_point(a, b)
-    lam = 1j * (t - b) / (t - a)
+    a, b, lam = _frame_parameters(a, b)
     z = np.asarray(z, dtype=np.complex128)
     zeta = lam * (z - a) / (z - b)
     s = np.log(np.abs(zeta))
@@ -101,10 +95,7 @@ def hypercycle_circle(a: ArrayLike, b: ArrayLike, d: ArrayLike) -> tuple[Complex
     The centre lies on the perpendicular bisector of the chord ``[a, b]``; where the hypercycle is
     the straight chord itself, centre and radius are ``inf``.
     """
-    a = np.asarray(a, dtype=np.complex128)
-    b = np.asarray(b, dtype=np.complex128)
-    a = a / np.abs(a)
-    b = b / np.abs(b)
+    a, b = _unit(a), _unit(b)
     x = hypercycle_point(a, b, 0.0, d)
     # circumcentre of a, b, x: centre = m + t·n with m chord midpoint, n ⊥ chord
     m = 0.5 * (a + b)

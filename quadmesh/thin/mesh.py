@@ -13,6 +13,29 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ThinPartError
+from ..geometry import (
+    angle_rounding_slack_deg,
+    quad_angles_deg,
+    quad_signed_areas,
+    unpaired_edges,
+)
+from ..polygon import signed_area as polygon_area
+
+__all__ = [
+    "KIND_CHAIN",
+    "KIND_CONNECTION",
+    "KIND_MESH1",
+    "KIND_MESH2",
+    "KIND_NAMES",
+    "KIND_STRIP",
+    "ChannelMesh",
+    "ThinMesh",
+    "polygon_area",
+    "quad_angles_deg",
+    "quad_signed_areas",
+    "require_angles",
+    "unpaired_edges",
+]
 
 #: Region kinds stored per quad (index into :data:`KIND_NAMES`).
 KIND_MESH1 = 0
@@ -23,8 +46,25 @@ KIND_CHAIN = 4
 KIND_NAMES: tuple[str, ...] = ("mesh1", "mesh2", "strip", "connection", "chain")
 
 
+class _KindedQuads:
+    """Methods shared by the thin-part meshes (fields ``vertices``, ``quads``, ``kind``)."""
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    kind: np.ndarray
+
+    @property
+    def kind_names(self) -> list[str]:
+        """Region kind of every quad as a string."""
+        return [KIND_NAMES[k] for k in self.kind]
+
+    def angles_deg(self) -> np.ndarray:
+        """(Q, 4) interior angle at every quad corner, degrees."""
+        return quad_angles_deg(self.vertices, self.quads)
+
+
 @dataclass(frozen=True)
-class ThinMesh:
+class ThinMesh(_KindedQuads):
     """Quad mesh of a parabolic thin part (vertex sector).
 
     Attributes:
@@ -49,15 +89,6 @@ class ThinMesh:
     side2: np.ndarray
     exempt_apex: bool
 
-    @property
-    def kind_names(self) -> list[str]:
-        """Region kind of every quad as a string."""
-        return [KIND_NAMES[k] for k in self.kind]
-
-    def angles_deg(self) -> np.ndarray:
-        """(Q, 4) interior angle at every quad corner, degrees."""
-        return quad_angles_deg(self.vertices, self.quads)
-
     def new_angle_mask(self) -> np.ndarray:
         """(Q, 4) bool: True for the corners that are new angles (all but the exempt apex)."""
         mask = np.ones(self.quads.shape, dtype=bool)
@@ -67,7 +98,7 @@ class ThinMesh:
 
 
 @dataclass(frozen=True)
-class ChannelMesh:
+class ChannelMesh(_KindedQuads):
     """Quad mesh of a hyperbolic thin part (channel between two walls).
 
     Attributes:
@@ -88,55 +119,9 @@ class ChannelMesh:
     wall2: np.ndarray
     n_intermediate: int
 
-    @property
-    def kind_names(self) -> list[str]:
-        """Region kind of every quad as a string."""
-        return [KIND_NAMES[k] for k in self.kind]
-
-    def angles_deg(self) -> np.ndarray:
-        """(Q, 4) interior angle at every quad corner, degrees."""
-        return quad_angles_deg(self.vertices, self.quads)
-
     def new_angle_mask(self) -> np.ndarray:
         """(Q, 4) bool: every corner of a channel mesh is a new angle."""
         return np.ones(self.quads.shape, dtype=bool)
-
-
-def quad_angles_deg(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Interior angle (degrees) at each corner of each counter-clockwise quad."""
-    z = vertices[quads]
-    prev = np.roll(z, 1, axis=1)
-    nxt = np.roll(z, -1, axis=1)
-    ang = np.angle((prev - z) / (nxt - z))
-    return np.degrees(np.mod(ang, 2.0 * np.pi))
-
-
-def quad_signed_areas(vertices: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Signed area of each quad (positive for counter-clockwise)."""
-    z = vertices[quads]
-    return 0.5 * np.sum((np.conj(z) * np.roll(z, -1, axis=1)).imag, axis=1)
-
-
-def polygon_area(z: np.ndarray) -> float:
-    """Signed area of the closed polygon with complex vertices ``z``."""
-    return float(0.5 * np.sum((np.conj(z) * np.roll(z, -1)).imag))
-
-
-def unpaired_edges(quads: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Directed edges of ``quads`` that have no oppositely oriented partner.
-
-    Returns the (E, 2) array of unpaired directed edges and a flag that is False when some
-    directed edge occurs twice (two quads with the same orientation on one edge, or a repeated
-    quad), i.e. when the mesh is not a consistently oriented surface.
-    """
-    e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=2).reshape(-1, 2).astype(np.int64)
-    n = int(e.max()) + 1 if len(e) else 1
-    code = e[:, 0] * n + e[:, 1]
-    rev = e[:, 1] * n + e[:, 0]
-    _uniq, counts = np.unique(code, return_counts=True)
-    ok = bool(np.all(counts == 1))
-    paired = np.isin(code, rev)
-    return e[~paired], ok
 
 
 def require_angles(
@@ -161,11 +146,7 @@ def require_angles(
     if np.any(areas <= 0.0):
         raise ThinPartError(f"{what}: {int(np.sum(areas <= 0))} quads are degenerate or inverted")
     ang = quad_angles_deg(vertices, quads)
-    q = np.asarray(vertices)[quads]
-    edge = np.abs(np.roll(q, -1, axis=1) - q).min(axis=1)
-    size = np.maximum(np.abs(q).max(axis=1), coord_scale)
-    with np.errstate(divide="ignore"):
-        slack = tol + np.degrees(8.0 * np.finfo(float).eps * size / edge)
+    slack = tol + angle_rounding_slack_deg(vertices, quads, coord_scale)
     slack = np.broadcast_to(slack[:, None], ang.shape)[mask]
     ang = ang[mask]
     if ang.size and (np.any(ang < lo - slack) or np.any(ang > hi + slack)):
