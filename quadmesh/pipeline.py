@@ -165,9 +165,10 @@ def _candidate_arcs(
     jc = js.reshape(hw.shape) + phi
     dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
     ratio = phi / gap[:, None]
-    # J's A-fold expansion reaches (√A/1.02 + 0.9)·φ ≈ 4.8φ from the core (√A = 4): with
-    # φ ≤ g/10 two neighbours' expansions stay inside the gap between them
-    bad = (ratio > 0.1) | (dist + half[:, None] > 0.9 * phi)
+    # J's A-fold expansion reaches (√A/1.02 + 0.9)·φ from the core (centre offset ≤ 0.9φ):
+    # keeping that below g/2 keeps two neighbours' expansions inside the gap between them
+    ratio_max = 0.5 / (np.sqrt(options.lemma_A) / 1.02 + 0.9)
+    bad = (ratio > ratio_max) | (dist + half[:, None] > 0.9 * phi)
     score = dist / phi + 0.01 * np.abs(np.log(ratio * options.crosscut_ratio)) + 10.0 * bad
     best = np.argmin(score, axis=1)
     rows = np.arange(centre.size)
