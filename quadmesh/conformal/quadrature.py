@@ -188,6 +188,12 @@ def plan_integrals(
             newp = np.where(last, end[active], p + rem * (h / L))
             if not np.all(np.isfinite(newp)):
                 raise QuadratureError("non-finite panel end (coalesced prevertices)")
+            if np.any(newp == p):
+                # the panel shrank below the rounding of its start: the path runs into a
+                # prevertex (or passes it closer than double precision resolves)
+                raise QuadratureError(
+                    "integration path runs into a prevertex (panel below rounding resolution)"
+                )
             owners.append(active)
             bases.append(b)
             aa.append(p)

@@ -16,9 +16,20 @@ coefficients stay O(1). The error behaves like ``(|t|/R)^order``.
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
-__all__ = ["exp_series", "horner", "log_coefficients"]
+__all__ = [
+    "exp_series",
+    "horner",
+    "log_coefficients",
+    "log_expansions",
+    "match_rows",
+    "unique_rows",
+    "window_pairs",
+]
 
 
 def log_coefficients(q: np.ndarray, beta: np.ndarray, order: int) -> np.ndarray:
@@ -53,3 +64,259 @@ def horner(coef: np.ndarray, rows: np.ndarray, tau: np.ndarray) -> np.ndarray:
     for m in range(M1 - 2, -1, -1):
         acc = acc * tau + coef[rows, m]
     return acc
+
+
+# ---------------------------------------------------------------------------------------------
+# Far-field tree: expansions of Λ(z) = Σ_k β_k log(1 − z/z_k) about many centres at once.
+#
+# A direct sum over all n prevertices for every series centre costs O(n·order) per centre,
+# which makes the push-forward of a disk mesh quadratic in n (CONFORMAL.md §1.10). The tree
+# below is the downward pass of a fast multipole method with point-to-local translations:
+# a dyadic box B of side h carries the expansion of the prevertices farther than F·h from its
+# centre (they are smooth on B); a child inherits its parent's expansion by an exact
+# polynomial shift and adds the prevertices that are far for the child but were near for the
+# parent. A target centre finally shifts its box's expansion to itself and adds its near
+# prevertices directly. Every prevertex enters O(1) boxes per level, so the total work is
+# O((n log(1/h_min) + boxes)·order + targets·order²).
+
+FAR = 7.0  # box far threshold in box sides: targets' regions sit within 2.71 h → ratio 0.39
+TREE_ORDER = 40  # 0.39^40 ≈ 4e-17
+
+
+def window_pairs(theta: np.ndarray, c: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All pairs (i, k) with ``|e^{iθ_k} − c_i| ≤ D_i`` as candidate index arrays.
+
+    The prevertices lie on the unit circle with sorted angles ``theta``; the disk of radius
+    D about c meets the circle in one arc, found by bisection. The caller applies the exact
+    distance test (the arc is widened slightly, so no pair is missed).
+    """
+    n = theta.size
+    rho = np.abs(c)
+    arg = np.mod(np.angle(c), 2 * np.pi)
+    e = np.abs(1.0 - rho)
+    # |e^{i(arg+φ)} − c|² = (1 − ρ)² + 4ρ sin²(φ/2): no cancellation for small D
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = (D - e) * (D + e) / (4.0 * rho)
+    phi = np.where(x >= 1.0, 4.0, 2.0 * np.arcsin(np.sqrt(np.clip(x, 0.0, 1.0))))
+    phi = np.where(x < 0.0, -1.0, phi)
+    phi = np.where(rho == 0.0, np.where(D >= 1.0, 4.0, -1.0), phi)
+    phi = np.where(phi >= 0.0, phi * (1.0 + 1e-9) + 1e-15, phi)
+    ext = np.concatenate([theta - 2 * np.pi, theta, theta + 2 * np.pi])
+    i0 = np.searchsorted(ext, arg - phi, side="left")
+    i1 = np.searchsorted(ext, arg + phi, side="right")
+    cnt = np.clip(i1 - i0, 0, n)
+    rows = np.repeat(np.arange(c.size), cnt)
+    start = np.repeat(i0 - np.cumsum(cnt) + cnt, cnt)
+    k = np.mod(start + np.arange(rows.size), n)
+    return rows, k
+
+
+def p2l(
+    rows: np.ndarray,
+    k: np.ndarray,
+    zk: np.ndarray,
+    beta: np.ndarray,
+    c: np.ndarray,
+    scale: np.ndarray,
+    order: int,
+    out: np.ndarray,
+) -> None:
+    """Add ``β_k log(1 − z/z_k)`` about ``c[rows]`` in ``u = (z − c)/scale`` to ``out[rows]``.
+
+    ``log(1 − (c + s)/z_k) = log((z_k − c)/z_k) − Σ_m (s/(z_k − c))^m/m``; the principal
+    branch is kept because the segment from c to any point of the target region avoids the
+    ray ``z_k·[1, ∞)`` (CONFORMAL.md §1.1).
+    """
+    if rows.size == 0:
+        return
+    K = out.shape[0]
+    d = zk[k] - c[rows]
+    b = beta[k]
+    l0 = np.log(d * np.conj(zk[k]))
+    out[:, 0] += np.bincount(rows, b * l0.real, K) + 1j * np.bincount(rows, b * l0.imag, K)
+    q = scale[rows] / d
+    srt = np.argsort(rows, kind="stable")
+    rs, qs, bs = rows[srt], q[srt], b[srt]
+    inv_m = -1.0 / np.arange(1, order + 1)
+    step = 65536
+    for i0 in range(0, rs.size, step):
+        r = rs[i0 : i0 + step]
+        P = np.empty((r.size, order), dtype=np.complex128)
+        P[:] = qs[i0 : i0 + step, None]
+        np.cumprod(P, axis=1, out=P)
+        P *= bs[i0 : i0 + step, None]
+        first = np.flatnonzero(np.r_[True, r[1:] != r[:-1]])
+        out[r[first], 1:] += np.add.reduceat(P, first, axis=0) * inv_m[None, :]
+
+
+def shift_matrix(s: complex, sigma: float, order: int) -> np.ndarray:
+    """Matrix M with ``a' = a @ M`` for ``Σ a_m τ^m = Σ a'_j u^j`` when ``τ = s + σ u``."""
+    M = np.zeros((order + 1, order + 1), dtype=np.complex128)
+    for m in range(order + 1):
+        for j in range(m + 1):
+            M[m, j] = math.comb(m, j) * s ** (m - j) * sigma**j
+    return M
+
+
+@functools.lru_cache(maxsize=64)
+def _pascal(rows: int, cols: int) -> np.ndarray:
+    m = np.arange(rows)[:, None]
+    j = np.arange(cols)[None, :]
+    return np.where(j <= m, np.vectorize(math.comb)(m, np.minimum(j, m)), 0).astype(float)
+
+
+def shift(a: np.ndarray, s: np.ndarray, sigma: np.ndarray, order: int) -> np.ndarray:
+    """Coefficients of ``Σ_m a_m (s + σ u)^m`` in u up to ``order``.
+
+    ``b_j = σ^j s^{−j} Σ_m C(m, j) (a_m s^m)``: one matrix product with the Pascal matrix for
+    all rows with ``|s| ≥ 1e-3`` (powers of s stay far from under/overflow); Horner on
+    polynomials for the others.
+    """
+    K, M1 = a.shape
+    out = np.empty((K, order + 1), dtype=np.complex128)
+    big = np.abs(s) >= 1e-3
+    i = np.flatnonzero(big)
+    if i.size:
+        L = max(M1, order + 1)
+        sp = np.empty((i.size, L), dtype=np.complex128)
+        sp[:, 0] = 1.0
+        sp[:, 1:] = s[i, None]
+        np.cumprod(sp, axis=1, out=sp)
+        y = a[i] * sp[:, :M1]
+        Pm = _pascal(M1, order + 1)
+        c = y.real @ Pm + 1j * (y.imag @ Pm)
+        r = np.empty((i.size, order + 1), dtype=np.complex128)
+        r[:, 0] = 1.0
+        r[:, 1:] = (sigma[i] / s[i])[:, None]
+        np.cumprod(r, axis=1, out=r)
+        out[i] = c * r
+    i = np.flatnonzero(~big)
+    if i.size:
+        P = np.zeros((i.size, order + 1), dtype=np.complex128)
+        ss = s[i, None]
+        sg = sigma[i, None]
+        for m in range(M1 - 1, -1, -1):
+            Q = ss * P
+            Q[:, 1:] += sg * P[:, :-1]
+            Q[:, 0] += a[i, m]
+            P = Q
+        out[i] = P
+    return out
+
+
+def log_expansions(
+    zk: np.ndarray,
+    theta: np.ndarray,
+    beta: np.ndarray,
+    c: np.ndarray,
+    rho: np.ndarray,
+    orders: np.ndarray,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Coefficients of ``Λ(c_i + 2ρ_i u) = Σ_j a_j u^j``, ``Λ(z) = Σ_k β_k log(1 − z/z_k)``.
+
+    ``rho_i`` is the radius of the region where target i will be evaluated (``|u| ≤ ½``); it
+    must not exceed half the distance from ``c_i`` to the prevertices. ``orders`` gives each
+    target's number of terms; returns groups ``(targets, coefficients)`` of equal order
+    (coefficients of shape (len(targets), order + 1)), computed with the far-field tree
+    described above (error ≈ 1e-16·Σ|β_k| at ``|u| ≤ ½``).
+    """
+    K = c.size
+    p = TREE_ORDER
+    lev_t = np.minimum(np.floor(np.log2(np.maximum(rho, 1e-300))).astype(np.int64), 1)
+    top = 1
+    lo = int(lev_t.min()) if K else top
+    # keys of each target's box at its own level
+    h_t = np.ldexp(1.0, lev_t)
+    kx = np.floor(c.real / h_t).astype(np.int64)
+    ky = np.floor(c.imag / h_t).astype(np.int64)
+    quad_mats = {}
+    for qx in (0, 1):
+        for qy in (0, 1):
+            s = ((qx - 0.5) + 1j * (qy - 0.5)) / (2.0 * FAR)
+            quad_mats[(qx, qy)] = shift_matrix(s, 0.5, p)
+    prev_keys = None
+    prev_exp = None
+    cen_prev = None
+    box_of_target = np.full(K, -1, dtype=np.int64)
+    level_exp: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for lev in range(top, lo - 1, -1):
+        sel = np.flatnonzero(lev_t <= lev)
+        sh = lev - lev_t[sel]
+        bx = kx[sel] >> sh
+        by = ky[sel] >> sh
+        keys, inv = unique_rows(np.stack([bx, by], axis=1))
+        h = math.ldexp(1.0, lev)
+        cen = (keys[:, 0] + 0.5) * h + 1j * (keys[:, 1] + 0.5) * h
+        exp = np.zeros((keys.shape[0], p + 1), dtype=np.complex128)
+        scale = np.full(keys.shape[0], FAR * h)
+        if prev_keys is None:
+            # top level: the far set (distance > F·h ≥ 14) is empty
+            pass
+        else:
+            pk = keys >> 1
+            pidx = match_rows(prev_keys, pk)
+            qx = keys[:, 0] - 2 * pk[:, 0]
+            qy = keys[:, 1] - 2 * pk[:, 1]
+            for (a, b_), M in quad_mats.items():
+                m = np.flatnonzero((qx == a) & (qy == b_))
+                if m.size:
+                    exp[m] = prev_exp[pidx[m]] @ M
+            pc = cen_prev[pidx]
+            rows, k = window_pairs(theta, pc, np.full(pc.size, 2.0 * FAR * h))
+            dp = np.abs(zk[k] - pc[rows])
+            dc = np.abs(zk[k] - cen[rows])
+            keep = (dp <= 2.0 * FAR * h) & (dc > FAR * h)
+            p2l(rows[keep], k[keep], zk, beta, cen, scale, p, exp)
+        here = sel[lev_t[sel] == lev]
+        box_of_target[here] = inv[lev_t[sel] == lev]
+        level_exp[lev] = (cen, exp)
+        prev_keys, prev_exp, cen_prev = keys, exp, cen
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    for o in np.unique(orders):
+        for lev in np.unique(lev_t):
+            t = np.flatnonzero((orders == o) & (lev_t == lev))
+            if t.size == 0:
+                continue
+            cen, exp = level_exp[int(lev)]
+            h = math.ldexp(1.0, int(lev))
+            bi = box_of_target[t]
+            S = 2.0 * rho[t]
+            a = shift(exp[bi], (c[t] - cen[bi]) / (FAR * h), S / (FAR * h), int(o))
+            rows, k = window_pairs(theta, cen[bi], np.full(t.size, FAR * h))
+            near = np.abs(zk[k] - cen[bi][rows]) <= FAR * h
+            p2l(rows[near], k[near], zk, beta, c[t], S, int(o), a)
+            out.append((t, a))
+    return out
+
+
+def _codes(keys: np.ndarray, lo: np.ndarray, span: np.ndarray) -> np.ndarray:
+    return (keys[:, 0] - lo[0]) * span[1] + (keys[:, 1] - lo[1])
+
+
+def unique_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique rows of an (N, 2) int64 array in lexicographic order, and the inverse index
+    (one 1-D sort of packed codes when they fit in int64, else a lexsort)."""
+    if keys.shape[0] == 0:
+        return keys.copy(), np.empty(0, dtype=np.intp)
+    lo = keys.min(axis=0)
+    span = keys.max(axis=0) - lo + 1
+    if float(span[0]) * float(span[1]) < 2.0**62:
+        _, first, inv = np.unique(_codes(keys, lo, span), return_index=True, return_inverse=True)
+        return keys[first], inv.ravel()
+    order = np.lexsort(keys.T[::-1])
+    sk = keys[order]
+    new = np.r_[True, np.any(sk[1:] != sk[:-1], axis=1)]
+    inv = np.empty(keys.shape[0], dtype=np.intp)
+    inv[order] = np.cumsum(new) - 1
+    return sk[new], inv
+
+
+def match_rows(keys: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Row index in ``keys`` (unique rows in lexicographic order, as from :func:`unique_rows`)
+    of each row of ``query`` (every query row must occur in ``keys``)."""
+    lo = keys.min(axis=0)
+    span = keys.max(axis=0) - lo + 1
+    if float(span[0]) * float(span[1]) < 2.0**62:
+        return np.searchsorted(_codes(keys, lo, span), _codes(query, lo, span))
+    _, inv = unique_rows(np.concatenate([keys, query]))
+    return inv[keys.shape[0] :]
