@@ -394,45 +394,44 @@ def _glue(asm: _Assembler, verts: np.ndarray, quads: np.ndarray, fixed: dict, so
     return gl
 
 
+def _collar(asm, thin, gamma, gamma_gl, walls, toward, part, what):
+    """Conformal collar between a crosscut image and a straight (round) crosscut, glued
+    onto the crosscut's global vertices; returns the straight crosscut's points and ids.
+    ``part`` is the (kind, owner, source) of the thin part it belongs to."""
+    from .thin.collar import conformal_collar
+
+    try:
+        col = conformal_collar(gamma, walls, toward=toward)
+    except ThinPartError as exc:
+        raise ThinPartError(f"{what}; collar: {exc.args[0]}") from exc
+    kind, owner, source = part
+    fixed = dict(zip(np.asarray(col.gamma_index).tolist(), gamma_gl.tolist()))
+    cgl = _glue(asm, np.asarray(col.vertices), col.quads, fixed, source)
+    thin.append(ThinPartResult(kind, owner, col, cgl))
+    si = np.asarray(col.straight_index)
+    return np.asarray(col.vertices)[si], cgl[si]
+
+
 def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin):
     """Vertex sector (paper §8, parabolic case), through a conformal collar when the
     crosscut is not round about the vertex."""
+    from .thin.collar import vertex_walls
     from .thin.parabolic import mesh_vertex_sector
 
     args = (corner.apex, corner.dir_out, float(corner.angle))
     try:
         sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
     except ThinPartError as first:
+        walls = vertex_walls(*args)
+        what = f"vertex {corner.index}: {first.args[0]}"
+        part = ("parabolic", corner.index, 1)
+        gamma, gamma_gl = _collar(asm, thin, gamma, gamma_gl, walls, "inner", part, what)
         try:
-            from .thin.collar import conformal_collar, vertex_walls
-
-            walls = vertex_walls(corner.apex, corner.dir_out, float(corner.angle))
-            col = conformal_collar(gamma, walls, toward="inner")
-        except ThinPartError as exc:
-            raise ThinPartError(
-                f"vertex {corner.index}: {first.args[0]}; collar: {exc.args[0]}"
-            ) from exc
-        cgl = _glue(
-            asm,
-            np.asarray(col.vertices),
-            col.quads,
-            dict(zip(np.asarray(col.gamma_index).tolist(), gamma_gl.tolist())),
-            1,
-        )
-        thin.append(ThinPartResult("parabolic", corner.index, col, cgl))
-        straight = np.asarray(col.vertices)[np.asarray(col.straight_index)]
-        try:
-            sec = mesh_vertex_sector(*args, straight, lam=options.sector_ratio)
+            sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
         except ThinPartError as exc:
             raise ThinPartError(f"vertex {corner.index}: {exc.args[0]}") from exc
-        gamma_gl = cgl[np.asarray(col.straight_index)]
-    gl = _glue(
-        asm,
-        np.asarray(sec.vertices),
-        sec.quads,
-        dict(zip(np.asarray(sec.gamma_index).tolist(), gamma_gl.tolist())),
-        1,
-    )
+    fixed = dict(zip(np.asarray(sec.gamma_index).tolist(), gamma_gl.tolist()))
+    gl = _glue(asm, np.asarray(sec.vertices), sec.quads, fixed, 1)
     thin.append(ThinPartResult("parabolic", corner.index, sec, gl))
 
 
@@ -445,27 +444,10 @@ def _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin):
     try:
         cm = mesh_channel(ga, gb, walls=walls)
     except ThinPartError as first:
-        from .thin.collar import conformal_collar
-
-        ends = []
-        for g, ggl, toward in ((ga, ga_gl, "outer"), (gb, gb_gl, "inner")):
-            try:
-                col = conformal_collar(g, walls, toward=toward)
-            except ThinPartError as exc:
-                raise ThinPartError(
-                    f"channel {ch.id}: {first.args[0]}; collar: {exc.args[0]}"
-                ) from exc
-            cgl = _glue(
-                asm,
-                np.asarray(col.vertices),
-                col.quads,
-                dict(zip(np.asarray(col.gamma_index).tolist(), ggl.tolist())),
-                2,
-            )
-            thin.append(ThinPartResult("hyperbolic", ch.id, col, cgl))
-            si = np.asarray(col.straight_index)
-            ends.append((np.asarray(col.vertices)[si], cgl[si]))
-        (ga, ga_gl), (gb, gb_gl) = ends
+        what = f"channel {ch.id}: {first.args[0]}"
+        part = ("hyperbolic", ch.id, 2)
+        ga, ga_gl = _collar(asm, thin, ga, ga_gl, walls, "outer", part, what)
+        gb, gb_gl = _collar(asm, thin, gb, gb_gl, walls, "inner", part, what)
         try:
             cm = mesh_channel(ga, gb, walls=walls)
         except ThinPartError as exc:
