@@ -54,19 +54,32 @@ runs back.  No crosscut comes within ``r_k`` of a vertex v_k: vertex regions are
 walking the boundary and jumping across each core along its crosscuts, so that a crosscut's
 vertex array is the same array in the thick piece and in the channel core.
 
-Limitations (v1): a wall is a single polygon edge; channels whose walls consist of several
-collinear or nearly collinear edges (or bend, like an L-shaped corridor made of two short legs)
-are not detected as one channel (each pair of facing edges is tested on its own, with the
-vertex regions of the joints cut out), so such a corridor stays inside a thick piece and makes
-its SC map crowd (the innermost piece of the test spiral, an L-corridor of two legs of
-4.5 widths each, has minimum prevertex gap 1e-12; the paper's Figure "thick-parts" also treats
-a channel with a many-edged wall as thick).  A channel whose walls are partly blocked by other
-edges keeps its longest unblocked stretch.  Overlapping candidate channels are resolved greedily
-by increasing extremal distance.
+**Crowding-driven refinement** (CONFORMAL.md §1.9 "split further", on by default:
+``crowding_gap = 1e-9``).  A corridor whose straight legs are each too short for ED < δ
+(square_spiral: seven legs of 1.5–6 widths, ~35 widths in all) stays inside one thick piece,
+whose prevertex gaps then fall far below double precision (1e-36).  After the ordinary pass,
+every thick piece that holds a *relaxed* candidate (ED < ``refine_delta`` = 0.5, overlap
+depth ≥ ``refine_overlap`` = 1.5 and core ≥ ``refine_core`` = 1/4 widths) has its smallest
+prevertex gap estimated as ``2π·min ω`` by the finite-element harmonic measure from its centre;
+while one is below ``crowding_gap`` the most crowded piece gets its smallest-ED candidate, and
+the pieces are rebuilt and re-estimated (:func:`_refine`).  The depth bound 1.5 keeps the
+crosscut's prevertex arc small (|I_j| ≈ 7e-3 rad; the arc choice of the disk construction
+failed for ~13 % of positions at |I_j| = 0.023, depth 1.25).  The A-expansion of a relaxed
+channel is ≈ exp(πD)/2 (83 at D = 1.625) instead of ≥ 188; the meshes still verify.
+
+Limitations: a wall is a single polygon edge; channels whose walls consist of several
+collinear or nearly collinear edges, or bend (glyph_s: a curved corridor of ~20 widths made
+of edges half a width long), are not detected as one channel, ordinary or relaxed, so such a
+corridor stays inside a thick piece and makes its SC map crowd (glyph_s: 1.4e-13).  A channel
+whose walls are partly blocked by other edges keeps its longest unblocked stretch.
+Overlapping candidate channels are resolved greedily by increasing extremal distance.
 
 Complexity: candidate wall pairs and vertex distances come from shapely ``STRtree`` queries
 (edges within ``δ·length`` of each other, vertices within their adjacent edge lengths), so
-the decomposition costs O(n log n) for polygons without pathological clustering.
+the decomposition costs O(n log n) for polygons without pathological clustering.  The
+refinement adds one relaxed candidate search (same cost) and one finite-element harmonic
+measure (~0.01–0.1 s) per thick piece that holds a relaxed candidate, per added channel; a
+polygon without relaxed candidates (the 1004-vertex comb) pays nothing more.
 """
 
 from __future__ import annotations
@@ -119,6 +132,21 @@ class DecomposeOptions:
             (arcs of radius ~ width/β), so that both walls are exactly the frame's lines.
         center_tol: tolerance of the largest inscribed disk computation giving each thick
             piece's centre, relative to ``sqrt(area)`` of the piece.
+        crowding_gap: crowding-driven refinement (CONFORMAL.md §1.9, "split further"): while
+            a thick piece's smallest prevertex gap, estimated as ``2π·min ω`` from its centre
+            (:func:`quadmesh.conformal.center.harmonic_measure`), is below this value, one
+            more channel with ED < ``refine_delta`` is cut inside it.  ``0`` disables it.
+        refine_delta: the relaxed extremal-distance threshold of those extra channels, in
+            (0, 1); the relaxed pass uses ``max(delta, refine_delta)``.
+        refine_overlap: smallest overlap depth (widths) of those extra channels.  The
+            crosscut's prevertex arc I_j shrinks like ``exp(−π·depth)``; the disk construction
+            downstream needs it small against the neighbouring gaps (measured on
+            square_spiral: depth 1.25 gives |I_j| ≈ 0.023 rad, and the arc choice then fails
+            for ~13 % of positions; below |I_j| ≈ 6e-3 it never failed), hence 1.5.
+        refine_core: smallest core length (widths) of those extra channels.  The channel
+            mesh spans the whole band between the two geodesic images in the overlaps, so a
+            short core is enough; a short core leaves deeper overlaps.  With the defaults a
+            channel needs a strip length ≥ 3.25 (ED ≤ 0.31).
     """
 
     delta: float = 0.15
@@ -129,6 +157,10 @@ class DecomposeOptions:
     min_core: float = 1.0
     parallel_tol: float = 1e-8
     center_tol: float = 1e-2
+    crowding_gap: float = 1e-9
+    refine_delta: float = 0.5
+    refine_overlap: float = 1.5
+    refine_core: float = 0.25
 
     def __post_init__(self) -> None:
         if not (0.0 < self.delta < 1.0):
@@ -137,10 +169,16 @@ class DecomposeOptions:
             raise DecompositionError(f"kappa must lie in (0, 1/4], got {self.kappa}")
         if int(self.crosscut_vertices) < 2:
             raise DecompositionError("crosscut_vertices must be at least 2")
-        if self.min_overlap <= 0 or self.min_core <= 0:
-            raise DecompositionError("min_overlap and min_core must be positive")
+        if min(self.min_overlap, self.min_core, self.refine_overlap, self.refine_core) <= 0:
+            raise DecompositionError(
+                "min_overlap, min_core, refine_overlap and refine_core must be positive"
+            )
         if not (0.0 < self.parallel_tol < 0.5):
             raise DecompositionError("parallel_tol must lie in (0, 0.5) radians")
+        if not (self.crowding_gap >= 0.0):
+            raise DecompositionError(f"crowding_gap must be >= 0, got {self.crowding_gap}")
+        if not (0.0 < self.refine_delta < 1.0):
+            raise DecompositionError(f"refine_delta must lie in (0, 1), got {self.refine_delta}")
         d = self.overlap_depth
         if not (self.min_overlap <= d < 1.0 / self.delta):
             raise DecompositionError(
@@ -240,6 +278,9 @@ class Channel:
         widths: channel width (parallel) or angle β (angled) at the two mouths, the strip
             width in which ``overlap`` is measured.
         pieces: thick piece indices on the a-side and the b-side.
+        relaxed: True for a channel cut by the crowding refinement (its extremal distance
+            lies in ``[delta, refine_delta)``, so its overlaps may be shallower than
+            ``overlap_depth``: ``min(overlap_depth, (strip length − min_core)/2)``).
     """
 
     kind: ClassVar[str] = "hyperbolic"
@@ -253,6 +294,7 @@ class Channel:
     outer_crosscuts: tuple[np.ndarray, np.ndarray]
     widths: tuple[float, float]
     pieces: tuple[int, int] = (-1, -1)
+    relaxed: bool = False
 
     @property
     def core_z(self) -> np.ndarray:
@@ -299,6 +341,11 @@ class ThickPiece:
         center: centre of the largest inscribed disk (the point f(0) of its SC map,
             CONFORMAL.md §2.4).
         radius: radius of that disk.
+        min_gap: estimate of the smallest prevertex gap (radians) of the piece's disk map
+            with f(0) = ``center``: ``2π·min_k ω(center, side_k)``.  Estimated only where the
+            crowding refinement could split the piece further (it holds a relaxed channel
+            candidate); NaN otherwise, when the refinement is off (``crowding_gap = 0``) or
+            when the estimate failed.
     """
 
     index: int
@@ -307,6 +354,7 @@ class ThickPiece:
     crosscuts: tuple[PieceCrosscut, ...]
     center: complex
     radius: float
+    min_gap: float = float("nan")
 
     @property
     def vertices(self) -> np.ndarray:
@@ -383,6 +431,7 @@ class _Candidate:
     widths: tuple[float, float]
     lam: tuple[tuple[float, float], tuple[float, float]]  # edge parameters of γ_A, γ_B on walls
     core: shapely.Polygon | None = None
+    relaxed: bool = False
 
 
 def _wall_point(z: np.ndarray, edge: int, x: float, xa: float, xb: float) -> tuple[float, complex]:
@@ -419,15 +468,19 @@ def _find_channels(
     tree: shapely.STRtree,
     r: np.ndarray,
     opt: DecomposeOptions,
+    delta: float,
+    min_overlap: float,
+    min_core: float,
 ) -> tuple[list[_Candidate], int]:
-    """Candidate channels for all facing wall pairs (CONFORMAL.md §2.2 steps 1–3)."""
+    """Candidate channels for all facing wall pairs with ED < delta (CONFORMAL.md §2.2 steps
+    1–3): overlap depth ``min(opt.overlap_depth, (strip length − min_core)/2)``, at least
+    ``min_overlap``."""
     n = z.size
     zn = np.roll(z, -1)
     edge = zn - z
     length = np.abs(edge)
     u = edge / length
     mid = 0.5 * (z + zn)
-    delta = opt.delta
 
     # 1. pairs of non-adjacent edges within δ·length of each other, facing each other
     a, b = tree.query(segs, predicate="dwithin", distance=delta * length)
@@ -632,15 +685,15 @@ def _find_channels(
         total = lens[best]
         if 1.0 / total >= delta:
             continue
-        dd = min(depth, 0.5 * (total - opt.min_core))
-        if dd < opt.min_overlap:
+        dd = min(depth, 0.5 * (total - min_core))
+        if dd < min_overlap:
             continue
         wa, wb = width_at(fr, wf, xa), width_at(fr, wf, xb)
         if fr.kind == "angled":
             xA, xB = xa * np.exp(dd * fr.beta), xb * np.exp(-dd * fr.beta)
         else:
             xA, xB = xa + dd * wa, xb - dd * wb
-        if not (xa < xA < xB < xb) or strip_len(fr, wf, xA, xB) < opt.min_core * (1 - 1e-9):
+        if not (xa < xA < xB < xb) or strip_len(fr, wf, xA, xB) < min_core * (1 - 1e-9):
             continue
         c1 = (fr.coordinate(z[i]).item(), fr.coordinate(zn[i]).item())
         c2 = (fr.coordinate(z[j]).item(), fr.coordinate(zn[j]).item())
@@ -776,7 +829,7 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
     d = _vertex_distances(z, segs, tree)
     r = opt.kappa * d
 
-    cands, n_pairs = _find_channels(z, segs, tree, r, opt)
+    cands, n_pairs = _find_channels(z, segs, tree, r, opt, opt.delta, opt.min_overlap, opt.min_core)
 
     # resolve overlapping candidates greedily by extremal distance
     m = int(opt.crosscut_vertices)
@@ -794,41 +847,16 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
                 continue
             taken[k] = True
         chosen = [cands[k] for k in np.flatnonzero(taken)]
-        chosen.sort(key=lambda c: (min(c.wall1, c.wall2), c.wall1))
 
-    channels: list[Channel] = []
-    lams = []
-    for cid, c in enumerate(chosen):
-        ga, gb = _candidate_crosscuts(z, c, m)
-        fr = c.frame
-        oa = _outer_crosscut(z, c, c.mouths[0], m)
-        ob = _outer_crosscut(z, c, c.mouths[1], m)
-        channels.append(
-            Channel(
-                id=cid,
-                walls=(c.wall1, c.wall2),
-                frame=fr,
-                extremal_distance=float(c.ed),
-                mouths=c.mouths,
-                cuts=c.cuts,
-                crosscuts=(_frozen(ga), _frozen(gb)),
-                outer_crosscuts=(_frozen(oa), _frozen(ob)),
-                widths=(float(c.widths[0]), float(c.widths[1])),
-            )
-        )
-        lams.append(c.lam)
-
-    raw = _build_pieces(z, channels, lams)
-
-    polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
-    if not all(p.is_valid for p in polys):
-        bad = [k for k, p in enumerate(polys) if not p.is_valid]
-        raise DecompositionError(f"thick piece(s) {bad} are not simple polygons")
-    centres = _centres(raw, channels, polys, opt.center_tol)
+    built = _assemble(z, chosen, m, opt)
+    channels, raw, centres = built
+    gaps = [float("nan")] * len(raw)
+    if opt.crowding_gap > 0:
+        channels, raw, centres, gaps = _refine(z, segs, tree, r, opt, chosen, built, m)
 
     thick: list[ThickPiece] = []
     piece_of_end: dict[tuple[int, int], int] = {}
-    for k, ((v, s, cuts), (ctr, rad)) in enumerate(zip(raw, centres, strict=True)):
+    for k, ((v, s, cuts), (ctr, rad), gap) in enumerate(zip(raw, centres, gaps, strict=True)):
         pcs = tuple(PieceCrosscut(a, b, cid, e, rev) for a, b, cid, e, rev in cuts)
         for pc in pcs:
             piece_of_end[(pc.channel, pc.end)] = k
@@ -840,6 +868,7 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
                 crosscuts=pcs,
                 center=ctr,
                 radius=rad,
+                min_gap=float(gap),
             )
         )
     channels = [
@@ -888,6 +917,155 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
         corners=corners,
         candidates=n_pairs,
     )
+
+
+_Raw = list[tuple[np.ndarray, np.ndarray, list[tuple[int, int, int, int, bool]]]]
+
+
+def _assemble(
+    z: np.ndarray, chosen: list[_Candidate], m: int, opt: DecomposeOptions
+) -> tuple[list[Channel], _Raw, list[tuple[complex, float]]]:
+    """Channels (numbered by their walls), thick pieces and piece centres for a set of
+    non-overlapping candidates.  Raises DecompositionError when a piece is not simple."""
+    chosen = sorted(chosen, key=lambda c: (min(c.wall1, c.wall2), c.wall1))
+    channels: list[Channel] = []
+    lams = []
+    for cid, c in enumerate(chosen):
+        ga, gb = _candidate_crosscuts(z, c, m)
+        oa = _outer_crosscut(z, c, c.mouths[0], m)
+        ob = _outer_crosscut(z, c, c.mouths[1], m)
+        channels.append(
+            Channel(
+                id=cid,
+                walls=(c.wall1, c.wall2),
+                frame=c.frame,
+                extremal_distance=float(c.ed),
+                mouths=c.mouths,
+                cuts=c.cuts,
+                crosscuts=(_frozen(ga), _frozen(gb)),
+                outer_crosscuts=(_frozen(oa), _frozen(ob)),
+                widths=(float(c.widths[0]), float(c.widths[1])),
+                relaxed=c.relaxed,
+            )
+        )
+        lams.append(c.lam)
+    raw = _build_pieces(z, channels, lams)
+    polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
+    if not all(p.is_valid for p in polys):
+        bad = [k for k, p in enumerate(polys) if not p.is_valid]
+        raise DecompositionError(f"thick piece(s) {bad} are not simple polygons")
+    centres = _centres(raw, channels, polys, opt.center_tol)
+    return channels, raw, centres
+
+
+def _band(z: np.ndarray, c: _Candidate, m: int) -> shapely.Polygon:
+    """The thin part Ω_2 of a candidate: the band between its outer crosscuts γ'_a, γ'_b."""
+    oa = _outer_crosscut(z, c, c.mouths[0], m)
+    ob = _outer_crosscut(z, c, c.mouths[1], m)
+    return shapely.Polygon(_xy(np.concatenate([ob, oa[::-1]])))
+
+
+def _min_gap(v: np.ndarray, centre: complex) -> float:
+    """Estimated smallest prevertex gap ``2π·min ω`` of a piece seen from its centre
+    (CONFORMAL.md §1.5, §1.8); NaN when the finite-element estimate cannot be built."""
+    from .conformal.center import harmonic_measure
+    from .errors import PolygonError
+
+    try:
+        om = harmonic_measure(v, centre)
+    except (PolygonError, ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return float("nan")
+    return float(2.0 * np.pi * np.min(om))
+
+
+def _refine(
+    z: np.ndarray,
+    segs: np.ndarray,
+    tree: shapely.STRtree,
+    r: np.ndarray,
+    opt: DecomposeOptions,
+    chosen: list[_Candidate],
+    built: tuple[list[Channel], _Raw, list[tuple[complex, float]]],
+    m: int,
+) -> tuple[list[Channel], _Raw, list[tuple[complex, float]], list[float]]:
+    """Crowding-driven refinement (CONFORMAL.md §1.9 "split further", §1.8 crowding rule).
+
+    The extra channels come from a relaxed pass: facing single-edge walls with
+    ED < ``max(delta, refine_delta)``, found and trimmed by the rules of the ordinary pass
+    (crosscuts outside the vertex regions B(v_k, r_k), straight walls in a parallel or wedge
+    frame),
+    with overlap depth ``min(overlap_depth, (strip length − refine_core)/2) ≥
+    refine_overlap``; wall pairs already cut and candidates whose thin part Ω_2 (the band
+    between the mouths) meets another channel's Ω_2 are dropped.  Such a band meets no core,
+    so it lies in exactly one thick piece.
+
+    Only pieces that hold a candidate can be split, so only those are estimated: their
+    smallest prevertex gap ``2π·min ω`` from the piece's centre (:func:`_min_gap`).  While one
+    is below ``opt.crowding_gap``, the most crowded such piece gets the candidate with the
+    smallest ED inside it (the longest straight stretch, hence the deepest overlaps), the
+    pieces are rebuilt and re-estimated.  Each step adds one channel, so the loop ends.
+    Returns channels, pieces, centres and the gap estimates (NaN for pieces not estimated).
+    """
+    channels, raw, centres = built
+    nan = float("nan")
+    used = {(c.wall1, c.wall2) for c in chosen}
+    found, _ = _find_channels(
+        z, segs, tree, r, opt, max(opt.delta, opt.refine_delta), opt.refine_overlap, opt.refine_core
+    )
+    pool = [c for c in found if (c.wall1, c.wall2) not in used]
+    bands = [_band(z, c, m) for c in pool]
+    taken = [_band(z, c, m) for c in chosen]
+    keep = [
+        i for i, b in enumerate(bands) if b.is_valid and not any(_overlaps(b, t) for t in taken)
+    ]
+    pool = [pool[i] for i in keep]
+    bands = [bands[i] for i in keep]
+    for c in pool:
+        c.relaxed = True
+    cache: dict[tuple[bytes, complex], float] = {}
+    hopeless: set[bytes] = set()
+    while True:
+        gaps = [nan] * len(raw)
+        if not pool:
+            return channels, raw, centres, gaps
+        polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
+        pts = shapely.points([shapely.get_coordinates(b.representative_point())[0] for b in bands])
+        bi, pk = shapely.STRtree(polys).query(pts, predicate="within")
+        members: dict[int, list[int]] = {}
+        for i, k in zip(bi.tolist(), pk.tolist(), strict=True):
+            members.setdefault(k, []).append(i)
+        for k in members:
+            v, ctr = raw[k][0], centres[k][0]
+            key = (v.tobytes(), ctr)
+            if key not in cache:
+                cache[key] = _min_gap(v, ctr)
+            gaps[k] = cache[key]
+        crowded = [
+            k for k in members if gaps[k] < opt.crowding_gap and raw[k][0].tobytes() not in hopeless
+        ]
+        if not crowded:
+            return channels, raw, centres, gaps
+        k = min(crowded, key=lambda i: gaps[i])
+        for i in sorted(members[k], key=lambda i: pool[i].ed):
+            try:
+                channels, raw, centres = _assemble(z, [*chosen, pool[i]], m, opt)
+            except DecompositionError:
+                continue
+            chosen = [*chosen, pool[i]]
+            rest = [j for j in range(len(pool)) if j != i and not _overlaps(bands[j], bands[i])]
+            pool = [pool[j] for j in rest]
+            bands = [bands[j] for j in rest]
+            break
+        else:
+            hopeless.add(raw[k][0].tobytes())
+
+
+def _overlaps(a: shapely.Polygon, b: shapely.Polygon) -> bool:
+    """True when two polygons share interior (more than a touching boundary)."""
+    if not a.intersects(b):
+        return False
+    scale = min(a.area, b.area)
+    return shapely.intersection(a, b).area > 1e-9 * scale
 
 
 def _centres(

@@ -17,8 +17,6 @@ KNOWN_FAILURES: dict[str, str] = {
     # a curved corridor ~20 widths long: prevertex gaps 2e-13 at both ends of the S, below
     # the disk construction's float64 resolution (1e-11 rad)
     "glyph_s": "disk",
-    # the innermost piece is a seven-leg corridor ~35 widths long: gaps ~1e-36
-    "square_spiral": "conformal",
 }
 #: Examples too slow for the default run of the suite (minutes on a loaded 2-core machine).
 SLOW = {"noisy_circle_1000"}
