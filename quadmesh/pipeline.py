@@ -512,85 +512,97 @@ def mesh_polygon(
     # converge like O(1/n)); Carleson images out of range -> halve the depth step.
     n, step = options.n, options.depth_step
     fixes: list[str] = []
-    while True:
-        disks = []
-        bad_kind: dict[str, tuple[float, float, int]] = {}
-        for i, pd in enumerate(work):
-            report("disk mesh", 0.4 + 0.3 * i / len(work))
-            disk, image = _disk_and_image(pd, n, step, options, timings)
-            disks.append((disk, image))
-            ang = quad_angles_deg(image, disk.quads)
-            out = (ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)
-            for kind in np.unique(disk.kind[out.any(axis=1)]):
-                sel = ang[disk.kind == kind]
-                lo, hi = float(sel.min()), float(sel.max())
-                old = bad_kind.get(str(kind), (ANGLE_MIN, ANGLE_MAX, pd.index))
-                bad_kind[str(kind)] = (min(lo, old[0]), max(hi, old[1]), pd.index)
-        if not bad_kind:
-            break
-        what = ", ".join(
-            f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
-        )
-        if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
-            n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-            fixes.append(f"{what}: n raised to {n}")
-        elif options.adaptive and step > MIN_DEPTH_STEP:
-            step = max(step / 2, MIN_DEPTH_STEP)
-            fixes.append(f"{what}: depth step lowered to {step:g}")
-        elif options.adaptive and n < options.max_n:
-            n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-            fixes.append(f"{what}: n raised to {n}")
-        else:
-            raise DiskConstructionError(
-                f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
-                f"step {step:g}); the conformal map distorts the disk mesh too much"
+    while True:  # thin parts failing -> raise n and rebuild
+        while True:
+            disks = []
+            bad_kind: dict[str, tuple[float, float, int]] = {}
+            for i, pd in enumerate(work):
+                report("disk mesh", 0.4 + 0.3 * i / len(work))
+                disk, image = _disk_and_image(pd, n, step, options, timings)
+                disks.append((disk, image))
+                ang = quad_angles_deg(image, disk.quads)
+                out = (ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)
+                for kind in np.unique(disk.kind[out.any(axis=1)]):
+                    sel = ang[disk.kind == kind]
+                    lo, hi = float(sel.min()), float(sel.max())
+                    old = bad_kind.get(str(kind), (ANGLE_MIN, ANGLE_MAX, pd.index))
+                    bad_kind[str(kind)] = (min(lo, old[0]), max(hi, old[1]), pd.index)
+            if not bad_kind:
+                break
+            what = ", ".join(
+                f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
             )
-
-    asm = _Assembler()
-    pieces: list[ThickPieceResult] = []
-    gam: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-    for pd, (disk, image) in zip(work, disks):
-        ids = asm.add_vertices(image)
-        asm.add_quads(ids[disk.quads], source=0)
-        src = np.asarray(dec.thick[pd.index].source)
-        owners = []
-        for j, (kind, idx) in enumerate(pd.owners):
-            g = np.asarray(disk.gamma[j])
-            if kind == "vertex":
-                owners.append(("vertex", int(src[idx])))
-                gam[("vertex", int(src[idx]))] = (image[g], ids[g])
+            if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
+                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                fixes.append(f"{what}: n raised to {n}")
+            elif options.adaptive and step > MIN_DEPTH_STEP:
+                step = max(step / 2, MIN_DEPTH_STEP)
+                fixes.append(f"{what}: depth step lowered to {step:g}")
+            elif options.adaptive and n < options.max_n:
+                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                fixes.append(f"{what}: n raised to {n}")
             else:
-                cc = dec.thick[pd.index].crosscuts[idx]
-                ch = dec.channels[cc.channel]
-                g = _orient_to_walls(g, image[g], ch.frame)
-                owners.append(("channel", int(cc.channel), int(cc.end)))
-                gam[("channel", int(cc.channel), int(cc.end))] = (image[g], ids[g])
-        pieces.append(
-            ThickPieceResult(
-                index=pd.index,
-                vertices=pd.z,
-                map=pd.fmap,
-                intervals=pd.intervals,
-                interval_owner=tuple(owners),
-                disk=disk,
-                image=image,
-                n_used=n,
-                fixes=tuple(fixes),
-                depth_step_used=step,
-            )
-        )
+                raise DiskConstructionError(
+                    f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
+                    f"step {step:g}); the conformal map distorts the disk mesh too much"
+                )
 
-    thin: list[ThinPartResult] = []
-    t0 = time.perf_counter()
-    for corner in dec.corners:
-        report("vertex sectors", 0.7 + 0.1 * corner.index / len(dec.corners))
-        pts, gl = gam[("vertex", int(corner.index))]
-        _sector(corner, pts, gl, options, asm, thin)
-    for ch in dec.channels:
-        report("channels", 0.8)
-        (ga, ga_gl), (gb, gb_gl) = gam[("channel", ch.id, 0)], gam[("channel", ch.id, 1)]
-        _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin)
-    timings["thin"] = time.perf_counter() - t0
+        asm = _Assembler()
+        pieces: list[ThickPieceResult] = []
+        gam: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        for pd, (disk, image) in zip(work, disks):
+            ids = asm.add_vertices(image)
+            asm.add_quads(ids[disk.quads], source=0)
+            src = np.asarray(dec.thick[pd.index].source)
+            owners = []
+            for j, (kind, idx) in enumerate(pd.owners):
+                g = np.asarray(disk.gamma[j])
+                if kind == "vertex":
+                    owners.append(("vertex", int(src[idx])))
+                    gam[("vertex", int(src[idx]))] = (image[g], ids[g])
+                else:
+                    cc = dec.thick[pd.index].crosscuts[idx]
+                    ch = dec.channels[cc.channel]
+                    g = _orient_to_walls(g, image[g], ch.frame)
+                    owners.append(("channel", int(cc.channel), int(cc.end)))
+                    gam[("channel", int(cc.channel), int(cc.end))] = (image[g], ids[g])
+            pieces.append(
+                ThickPieceResult(
+                    index=pd.index,
+                    vertices=pd.z,
+                    map=pd.fmap,
+                    intervals=pd.intervals,
+                    interval_owner=tuple(owners),
+                    disk=disk,
+                    image=image,
+                    n_used=n,
+                    fixes=tuple(fixes),
+                    depth_step_used=step,
+                )
+            )
+
+        thin: list[ThinPartResult] = []
+        t0 = time.perf_counter()
+        try:
+            for corner in dec.corners:
+                report("vertex sectors", 0.7 + 0.1 * corner.index / len(dec.corners))
+                pts, gl = gam[("vertex", int(corner.index))]
+                _sector(corner, pts, gl, options, asm, thin)
+            for ch in dec.channels:
+                report("channels", 0.8)
+                (ga, ga_gl), (gb, gb_gl) = gam[("channel", ch.id, 0)], gam[("channel", ch.id, 1)]
+                _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin)
+        except ThinPartError as exc:
+            # a larger n puts more vertices on every crosscut (3·2n + 1 on its pentagon
+            # edges), so the thin parts' chords get shorter and flatter
+            timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+            if not options.adaptive or n >= options.max_n:
+                raise
+            n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+            fixes.append(f"{exc.args[0]}: n raised to {n}")
+            continue
+        timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+        break
 
     report("verify", 0.9)
     t0 = time.perf_counter()

@@ -64,7 +64,7 @@ class ConformalAccuracy:
     round_trip: float
     min_gap: float
 
-    def passed(self, tol: float = 1e-10, round_trip_tol: float = 1e-12) -> bool:
+    def passed(self, tol: float = 1e-10, round_trip_tol: float = 1e-10) -> bool:
         """True when checks 1–4 are below ``tol`` and the round trip below ``round_trip_tol``."""
         return (
             max(self.residual, self.side_error, self.center_error, self.boundary_deviation) < tol
