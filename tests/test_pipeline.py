@@ -81,3 +81,16 @@ def test_needle_triangle() -> None:
     result = mesh_polygon(tri)
     _assert_good(result, tri)
     assert result.quality.n_original >= 2
+
+
+@pytest.mark.parametrize(("scale", "offset"), [(1e-9, 1e-6), (1e9, 5e12)])
+def test_tiny_and_huge_coordinates(scale: float, offset: float) -> None:
+    """The L-shape at 1e-9 and 1e9 scales (far from the origin) gives the same mesh."""
+    lshape = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+    ref = mesh_polygon(lshape)
+    result = mesh_polygon(lshape * scale + offset)
+    _assert_good(result, lshape * scale + offset)
+    assert result.mesh.quads.shape == ref.mesh.quads.shape
+    np.testing.assert_allclose(
+        (result.mesh.vertices - offset) / scale, ref.mesh.vertices, atol=1e-6
+    )
