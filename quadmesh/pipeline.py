@@ -335,8 +335,20 @@ def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _P
     return _Piece(piece.index, np.asarray(piece.z), fmap, theta, intervals, owners, stretches)
 
 
+def _d5(inner_height: float) -> float:
+    """The deepest triangle landmark D5 (DISK.md §6); the depth sequence must go beyond it."""
+    from .disk.carleson_triangle import triangle_landmarks
+
+    return float(triangle_landmarks(inner_height).D5)
+
+
 def _disk_and_image(
-    pd: _Piece, n: int, step: float, options: MeshOptions, timings: dict[str, float]
+    pd: _Piece,
+    n: int,
+    step: float,
+    dmax: float | None,
+    options: MeshOptions,
+    timings: dict[str, float],
 ):
     """Lemma 2.2 region and its mesh for one piece, pushed forward (paper §7)."""
     from .disk import disk_mesh
@@ -350,6 +362,7 @@ def _disk_and_image(
             depth_step=step,
             inner_height=options.inner_height,
             depth_growth=options.depth_growth,
+            depth_max=None if dmax is None else max(dmax, _d5(options.inner_height) + 0.5),
         )
     except DiskConstructionError as exc:
         raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
@@ -510,7 +523,7 @@ def mesh_polygon(
     # One (n, depth step) for all pieces: both sides of a channel must carry the same
     # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
     # converge like O(1/n)); Carleson images out of range -> halve the depth step.
-    n, step = options.n, options.depth_step
+    n, step, dmax = options.n, options.depth_step, options.depth_max
     fixes: list[str] = []
     while True:  # thin parts failing -> raise n and rebuild
         while True:
@@ -518,7 +531,7 @@ def mesh_polygon(
             bad_kind: dict[str, tuple[float, float, int]] = {}
             for i, pd in enumerate(work):
                 report("disk mesh", 0.4 + 0.3 * i / len(work))
-                disk, image = _disk_and_image(pd, n, step, options, timings)
+                disk, image = _disk_and_image(pd, n, step, dmax, options, timings)
                 disks.append((disk, image))
                 ang = quad_angles_deg(image, disk.quads)
                 out = (ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)
@@ -537,6 +550,7 @@ def mesh_polygon(
                 fixes.append(f"{what}: n raised to {n}")
             elif options.adaptive and step > MIN_DEPTH_STEP:
                 step = max(step / 2, MIN_DEPTH_STEP)
+                dmax = None  # and the notes' full depth log(8/step) + 2
                 fixes.append(f"{what}: depth step lowered to {step:g}")
             elif options.adaptive and n < options.max_n:
                 n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)

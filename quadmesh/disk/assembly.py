@@ -159,6 +159,7 @@ def disk_mesh(
     depth_step: float = 0.25,
     inner_height: float = 1.0,
     depth_growth: float = 1.0,
+    depth_max: float | None = None,
 ) -> DiskMesh:
     """Conforming quad mesh of W for arcs ``intervals`` (Lemma 2.2 and §§4–6 of the paper).
 
@@ -171,6 +172,8 @@ def disk_mesh(
         depth_growth: ratio of consecutive depth steps below the last triangle landmark D5
             (1 = uniform; ``depth_sequence(..., growth=)``). Rows below D5 are thin Euclidean
             strips near 90° (DISK.md §8.5), so coarsening them saves quads.
+        depth_max: depth d_M of the last row above the circle (default ``log(8/step) + 2``);
+            the cells of the last row deviate from 90° by about ``e^{−d_M}`` rad (§5).
 
     Raises:
         DiskConstructionError: if Lemma 2.2's hypotheses fail or the pieces do not fit.
@@ -187,7 +190,7 @@ def disk_mesh(
         )
     n = int(n)
     ns = 2 * n
-    depths = depth_sequence(inner_height, depth_step, growth=depth_growth)
+    depths = depth_sequence(inner_height, depth_step, d_max=depth_max, growth=depth_growth)
     Md = depths.size - 1
     PM = pentagon_mesh(n)
     CQ = carleson_quad_mesh(ns, depths)
