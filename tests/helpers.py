@@ -74,3 +74,14 @@ def require_pipeline() -> None:
         from quadmesh.pipeline import mesh_polygon  # noqa: F401
     except (ImportError, AttributeError) as exc:
         pytest.skip(f"pipeline not available yet: {exc}")
+
+
+def assert_map_checks(dm, tol: float = 1e-10) -> None:
+    """The accuracy checks of CONFORMAL.md §1.7 for a solved DiskMap: residual, side error,
+    centre error and boundary deviation below ``tol``, round trip below 1e-12."""
+    acc = dm.accuracy()
+    assert acc.residual < tol
+    assert acc.side_error < tol
+    assert acc.center_error < tol
+    assert acc.boundary_deviation < tol
+    assert acc.round_trip < 1e-12

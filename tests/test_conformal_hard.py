@@ -21,6 +21,7 @@ from quadmesh.conformal.quadrature import QuadratureError, plan_integrals
 from quadmesh.decompose import DecomposeOptions, decompose
 from quadmesh.errors import ConformalMapError
 from quadmesh.examples import load_example
+from tests.helpers import assert_map_checks
 
 TOL = 1e-10
 
@@ -31,12 +32,7 @@ def piece(name: str, k: int = 0) -> tuple[np.ndarray, complex]:
 
 
 def assert_checks(dm: DiskMap, tol: float = TOL) -> None:
-    acc = dm.accuracy()
-    assert acc.residual < tol
-    assert acc.side_error < tol
-    assert acc.center_error < tol
-    assert acc.boundary_deviation < tol
-    assert acc.round_trip < 1e-12
+    assert_map_checks(dm, tol)
 
 
 def test_harmonic_measure_regular_polygon() -> None:
