@@ -307,6 +307,7 @@ class _Piece:
     intervals: np.ndarray
     owners: list[tuple[str, int]]
     stretches: list
+    repair: object = None
 
 
 def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _Piece:
@@ -377,7 +378,36 @@ def _disk_and_image(
     if not np.all(np.isfinite(image)):
         raise ConformalMapError(f"thick piece {pd.index}: the map gave non-finite mesh vertices")
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
+    pd.repair = None
+    if options.repair:
+        image = _repair_image(pd, disk, image, timings)
     return disk, image
+
+
+def _repair_image(pd: _Piece, disk, image: np.ndarray, timings: dict[str, float]) -> np.ndarray:
+    """Local angle repair of a pushed-forward disk mesh (:mod:`quadmesh.repair`): only
+    vertices off the boundary of W (not on the circle, not on the geodesics over the J_j
+    whose images the thin parts are built on) move. Returns the image, repaired if needed
+    and possible; ``pd.repair`` keeps the report."""
+    from .geometry import unpaired_edges
+    from .repair import repair_angles
+
+    ang = quad_angles_deg(image, disk.quads)
+    if not np.any((ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)):
+        return image
+    t0 = time.perf_counter()
+    edges, _ = unpaired_edges(disk.quads)
+    movable = np.ones(image.size, dtype=bool)
+    movable[np.unique(edges)] = False
+    movable[np.asarray(disk.on_circle, dtype=bool)] = False
+    for g in disk.gamma:
+        movable[np.asarray(g)] = False
+    got = repair_angles(image, disk.quads, movable, tol=ANGLE_TOL)
+    timings["repair"] = timings.get("repair", 0.0) + time.perf_counter() - t0
+    if got is None:
+        return image
+    pd.repair = got[1]
+    return got[0]
 
 
 def _orient_to_walls(gamma_ids: np.ndarray, pts: np.ndarray, frame) -> np.ndarray:

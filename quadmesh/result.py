@@ -56,6 +56,10 @@ class MeshOptions:
         adaptive: raise n (2 → 3 → 4 → 6) for a thick piece whose pushed-forward quads
             leave [60°, 120°], and redo it.
         max_n: largest n the adaptive loop tries.
+        repair: before the adaptive loop changes anything, move the interior vertices near
+            pushed-forward quads that leave [60°, 120°] by a small fraction of their edges
+            (:func:`quadmesh.repair.repair_angles`; topology, boundary and the crosscut
+            vertices shared with thin parts are untouched). Off: the paper's remedy only.
     """
 
     n: int = 2
@@ -70,6 +74,7 @@ class MeshOptions:
     conformal_tol: float = 1e-10
     adaptive: bool = True
     max_n: int = 6
+    repair: bool = True
 
     def __post_init__(self) -> None:
         if int(self.n) != self.n or self.n < 1:
