@@ -55,7 +55,7 @@ def test_repair_only_moves_vertices_near_the_bad_quads():
     z = z.copy()
     k = 3 * 13 + 3
     z[k] += 0.02 + 0.015j
-    new, rep = repair_angles(z, q, mov, rings=1)
+    new, _ = repair_angles(z, q, mov, rings=1)
     far = np.abs(z - z[k]) > 0.35
     assert np.array_equal(new[far], z[far])
 
