@@ -384,6 +384,14 @@ def _disk_and_image(
     return disk, image
 
 
+def _angle_tol(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """(Q,) slack (degrees) on the angle bounds per quad: ANGLE_TOL plus what float64 storage
+    of the vertices can put on the angles of that quad (as the final verifier allows)."""
+    from .geometry import angle_rounding_slack_deg
+
+    return ANGLE_TOL + angle_rounding_slack_deg(image, quads)
+
+
 def _repair_image(pd: _Piece, disk, image: np.ndarray, timings: dict[str, float]) -> np.ndarray:
     """Local angle repair of a pushed-forward disk mesh (:mod:`quadmesh.repair`): only
     vertices off the boundary of W (not on the circle, not on the geodesics over the J_j
@@ -393,7 +401,8 @@ def _repair_image(pd: _Piece, disk, image: np.ndarray, timings: dict[str, float]
     from .repair import repair_angles
 
     ang = quad_angles_deg(image, disk.quads)
-    if not np.any((ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)):
+    tol = _angle_tol(image, disk.quads)[:, None]
+    if not np.any((ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)):
         return image
     t0 = time.perf_counter()
     edges, _ = unpaired_edges(disk.quads)
@@ -402,7 +411,7 @@ def _repair_image(pd: _Piece, disk, image: np.ndarray, timings: dict[str, float]
     movable[np.asarray(disk.on_circle, dtype=bool)] = False
     for g in disk.gamma:
         movable[np.asarray(g)] = False
-    got = repair_angles(image, disk.quads, movable, tol=ANGLE_TOL)
+    got = repair_angles(image, disk.quads, movable, tol=_angle_tol(image, disk.quads))
     timings["repair"] = timings.get("repair", 0.0) + time.perf_counter() - t0
     if got is None:
         return image
@@ -564,7 +573,8 @@ def mesh_polygon(
                 disk, image = _disk_and_image(pd, n, step, dmax, options, timings)
                 disks.append((disk, image))
                 ang = quad_angles_deg(image, disk.quads)
-                out = (ang < ANGLE_MIN - ANGLE_TOL) | (ang > ANGLE_MAX + ANGLE_TOL)
+                tol = _angle_tol(image, disk.quads)[:, None]
+                out = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
                 for kind in np.unique(disk.kind[out.any(axis=1)]):
                     sel = ang[disk.kind == kind]
                     lo, hi = float(sel.min()), float(sel.max())

@@ -84,7 +84,7 @@ def repair_angles(
     margin: float = 0.05,
     rings: int = 2,
     max_vertices: int = 20000,
-    tol: float = 1e-6,
+    tol: float | ArrayLike = 1e-6,
     xtol: float = 1e-6,
     max_nfev: int = 100,
 ) -> tuple[NDArray[np.complex128], RepairReport] | None:
@@ -101,8 +101,10 @@ def repair_angles(
             their bound), so that the accepted result has a little slack.
         rings: quad rings around the offending quads whose movable vertices may move.
         max_vertices: refuse (return None) when more vertices would have to move.
-        tol: rounding slack (degrees) on [lo, hi]: angles that are exactly lo or hi by
-            construction (the spokes of the inner triangles T_i) are not offending.
+        tol: rounding slack (degrees) on [lo, hi], a scalar or one value per quad (e.g.
+            :func:`quadmesh.geometry.angle_rounding_slack_deg` plus a constant): angles that
+            are exactly lo or hi by construction (the spokes of the inner triangles T_i) and
+            read off by float64 rounding are not offending.
         xtol, max_nfev: stopping rules of the least-squares solve (the result is checked
             with the exact angles whatever the solver reports).
 
@@ -116,7 +118,8 @@ def repair_angles(
     q = np.asarray(quads, dtype=np.int64)
     mov = np.asarray(movable, dtype=bool).ravel()
     ang = quad_angles_deg(z0, q)
-    bad_q = np.flatnonzero(((ang < lo - tol) | (ang > hi + tol)).any(axis=1))
+    tq = np.broadcast_to(np.asarray(tol, dtype=float), (len(q),))[:, None]
+    bad_q = np.flatnonzero(((ang < lo - tq) | (ang > hi + tq)).any(axis=1))
     if bad_q.size == 0:
         return z0, RepairReport(np.zeros(0, np.int64), 0.0, (lo, hi), (lo, hi))
 
@@ -158,7 +161,7 @@ def repair_angles(
     before_lo, before_hi = 180.0, 0.0
     for c in range(ncomp):
         sub = region[order[bounds[c] : bounds[c + 1]]]
-        got = _solve_region(z0, q, ang, sub, lo, hi, margin, tol, xtol, max_nfev)
+        got = _solve_region(z0, q, ang, sub, lo, hi, margin, tq, xtol, max_nfev)
         if got is None:
             return None
         z[sub], shift, (a_lo, a_hi), (b_lo, b_hi) = got
@@ -177,7 +180,7 @@ def _solve_region(
     lo: float,
     hi: float,
     margin: float,
-    tol: float,
+    tq: NDArray[np.float64],
     xtol: float,
     max_nfev: int,
 ):
@@ -191,6 +194,7 @@ def _solve_region(
     qq = q[rq]
     a0 = np.radians(ang[rq])
     lo_r, hi_r = np.radians(lo + margin), np.radians(hi - margin)
+    tol = tq[rq]
     lo_t = np.where(a0 < np.radians(lo - tol), lo_r, np.minimum(lo_r, a0))
     hi_t = np.where(a0 > np.radians(hi + tol), hi_r, np.maximum(hi_r, a0))
     area0 = quad_signed_areas(z0, qq)
