@@ -392,6 +392,18 @@ def _angle_tol(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return ANGLE_TOL + angle_rounding_slack_deg(image, quads)
 
 
+def _repair_note(pd: _Piece) -> tuple[str, ...]:
+    """The fix note of a piece whose pushed-forward mesh was repaired, for ThickPieceResult."""
+    rep = pd.repair
+    if rep is None or rep.moved.size == 0:
+        return ()
+    return (
+        f"angles [{rep.before[0]:.2f}, {rep.before[1]:.2f}] repaired locally: "
+        f"{rep.moved.size} interior vertices moved by at most {100 * rep.max_shift:.2g}% of "
+        f"their shortest edge, now [{rep.after[0]:.2f}, {rep.after[1]:.2f}]",
+    )
+
+
 def _repair_image(pd: _Piece, disk, image: np.ndarray, timings: dict[str, float]) -> np.ndarray:
     """Local angle repair of a pushed-forward disk mesh (:mod:`quadmesh.repair`): only
     vertices off the boundary of W (not on the circle, not on the geodesics over the J_j
@@ -630,7 +642,7 @@ def mesh_polygon(
                     disk=disk,
                     image=image,
                     n_used=n,
-                    fixes=tuple(fixes),
+                    fixes=tuple(fixes) + _repair_note(pd),
                     depth_step_used=step,
                 )
             )

@@ -82,6 +82,7 @@ def test_l_shape_keeps_n2_with_repair_and_needs_n3_without():
     q = r.mesh.quality()
     assert q.min_angle >= 60.0 - 1e-6 and q.max_angle <= 120.0 + 1e-6
     assert all(p.n_used == 2 for p in r.pieces)
+    assert any("repaired locally" in f for p in r.pieces for f in p.fixes)
     r0 = mesh_polygon(poly, MeshOptions(repair=False))
     assert max(p.n_used for p in r0.pieces) >= 3
     # n = 2 costs fewer quads than the paper's remedy (raise n)
