@@ -213,3 +213,31 @@ def test_tiny_collar_far_from_the_origin() -> None:
     ang = quad_angles_deg(rel, col.quads)
     assert ang.min() > 70.0 and ang.max() < 110.0
     np.testing.assert_allclose(np.abs(rel[col.straight_index]), col.radius, rtol=1e-6)
+
+
+def _dipping_crosscut(y_deg: np.ndarray) -> np.ndarray:
+    """A crosscut of a 331° vertex at the origin (side 1 along +x) that spirals in towards the
+    vertex: log radius -5.4 at side 1 down to -8.4 at side 2 (radius ratio e^3, as the
+    geodesic image at the 331° corner of /tmp/fuzz/sstroke_6), meeting both sides at right
+    angles, with vertices at the polar angles ``y_deg``."""
+    y = np.radians(y_deg)
+    x = -5.4 - 1.5 * (1.0 - np.cos(np.pi * y / math.radians(331.0)))
+    return np.exp(x + 1j * y)
+
+
+def test_collar_on_sparse_crosscut_near_the_vertex() -> None:
+    """Root cause of the sstroke_6 / 1:100 slit failures: the collar's rows spread over the
+    straight arc like harmonic measure seen from it, which concentrates where the crosscut
+    comes closest to the vertex, so a 45° gap of the crosscut there becomes a ~60° chord of the
+    arc (angles 90 ± 30° and worse). With the vertices there twice as dense it meshes."""
+    walls = vertex_walls(0j, 1.0 + 0j, math.radians(331.0))
+    dense = np.linspace(0.0, 192.0, 41)
+    coarse = np.concatenate([dense, [237.0, 265.0, 297.0, 315.0, 331.0]])
+    with pytest.raises(ThinPartError, match="needs more vertices where it comes close"):
+        conformal_collar(_dipping_crosscut(coarse), walls)
+    fine = np.concatenate([dense, [214.0, 237.0, 251.0, 265.0, 281.0, 297.0, 306.0, 315.0]])
+    col = conformal_collar(_dipping_crosscut(np.append(fine, [323.0, 331.0])), walls)
+    ang = col.angles_deg()
+    assert 70.0 < ang.min() and ang.max() < 110.0
+    arc = np.angle(col.straight)
+    assert np.degrees(np.diff(np.unwrap(arc))).max() < 45.0

@@ -268,6 +268,12 @@ def conformal_collar(
         ThinPartError: gamma not from wall 1 to wall 2 or not a graph over the wall-to-wall
             coordinate, gamma too steep (|dX/dy| > ``max_slope``), the map cannot be fitted or
             folds, more than ``max_columns`` columns needed, or an angle outside [60°, 120°].
+            The rows of the grid spread over the straight arc like harmonic measure seen from
+            it, which concentrates where gamma comes closest to the vertex: a gap of gamma's
+            vertices there widens on the arc (measured 45.0° -> 62.5° and 46.9° -> 67.8° on
+            crosscuts whose radius varies 20-37 fold), and an arc chord spanning D meets the
+            rows at 90° ± D/2. No choice of width helps (0.1-3 strip heights measured); gamma
+            needs more vertices there, and the message says so.
     """
     g = np.asarray(gamma, dtype=np.complex128).ravel()
     n_pts = len(g)
@@ -369,9 +375,23 @@ def conformal_collar(
         )
     ang = quad_angles_deg(rel, quads)
     if ang.min() < 60.0 - 1e-7 or ang.max() > 120.0 + 1e-7:
+        why = "the crosscut's chords are too coarse or too tilted for a collar"
+        if not walls.is_parallel and toward == "inner":
+            # The rows spread over the straight arc like harmonic measure seen from it, which
+            # concentrates where gamma comes closest to the vertex: a gap of gamma's vertices
+            # there widens on the arc, and a chord spanning D meets the radial rows at 90 ± D/2.
+            wide = int(np.argmax(np.diff(ys[0])))
+            arc_gap = math.degrees(float(ys[0, wide + 1] - ys[0, wide]))
+            if arc_gap > 50.0:
+                why = (
+                    f"rows {wide}-{wide + 1} span {arc_gap:.1f} deg on the straight arc "
+                    f"({math.degrees(float(y[wide + 1] - y[wide])):.1f} deg between the crosscut "
+                    f"vertices at log radius {x[wide]:.2f}, {x[wide + 1]:.2f}; the crosscut's "
+                    f"nearest point to the vertex is at {x.min():.2f}): the crosscut needs more "
+                    "vertices where it comes close to the vertex"
+                )
         raise ThinPartError(
-            f"collar angles in [{ang.min():.2f}, {ang.max():.2f}] degrees leave [60, 120]; the "
-            "crosscut's chords are too coarse or too tilted for a collar"
+            f"collar angles in [{ang.min():.2f}, {ang.max():.2f}] degrees leave [60, 120]; {why}"
         )
     return CollarMesh(
         vertices=verts,
