@@ -10,6 +10,7 @@ information (counts, angles, timings, histogram).  All computing happens in ``qu
 from __future__ import annotations
 
 import dataclasses
+from html import escape as html_escape
 from pathlib import Path
 from typing import Any
 
@@ -723,6 +724,10 @@ class MainWindow(QMainWindow):
             f"<tr><td>{k}</td><td align='right'>{v:.3f} s</td></tr>" for k, v in r.timings.items()
         )
         html += f"<tr><td><b>total</b></td><td align='right'><b>{total:.3f} s</b></td></tr></table>"
+        fixes = list(dict.fromkeys(f for p in r.pieces for f in p.fixes))
+        if fixes:
+            html += "<p><b>adaptive fixes</b></p><ul>"
+            html += "".join(f"<li>{html_escape(f)}</li>" for f in fixes) + "</ul>"
         if problems:
             html += (
                 "<p style='color:#c00000'>layers not drawn:<br>" + "<br>".join(problems) + "</p>"

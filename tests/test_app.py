@@ -227,6 +227,8 @@ def test_mesh_through_worker_layers_toggle(meshed):
     q = win.result.quality
     assert q.n_quads == win.result.mesh.quads.shape[0] > 0
     assert "quads" in win.info_label.text()
+    # the L-shape's few sub-60° pentagon images are repaired locally (n stays 2)
+    assert "repaired locally" in win.info_label.text()
     assert win.histogram.counts.sum() == np.asarray(q.histogram).sum()
     for name, cb in win.layer_panel.checkboxes.items():
         view = win.plane if name in win.plane.layers and name not in win.disk.layers else win.disk
