@@ -6,6 +6,9 @@
   examples) with n = 10, 30, 100, 300, 1000 (up to ``--max-n``): time of every stage, quads,
   quads per vertex, and the fitted exponents of time and quads against n;
 * ``--examples``: every bundled example, with the same columns (or the reason it failed);
+* ``--outlines [--seed S]``: one generated outline of every family of
+  :mod:`quadmesh.outlines` (floor plans, pixel contours, multi-scale notches, spiky stars,
+  coastlines, keyholes, pen strokes), with the same columns and the adaptive fixes;
 * ``--disk``: the disk construction alone (Lemma 2.2 + piece meshes) for m = 10, 100, 1000
   random admissible arcs: time, pieces and quads.
 
@@ -91,6 +94,55 @@ def run_examples() -> None:
         )
 
 
+def _fix_tags(fixes) -> str:
+    """Short tags for the adaptive fixes of a result: local repair, depth step, n."""
+    tags = []
+    for f in fixes:
+        if "repaired locally" in f:
+            tag = "repaired"
+        elif "depth step lowered to" in f:
+            tag = "depth step " + f.rsplit("to", 1)[-1].strip()
+        elif "n raised to" in f:
+            tag = "n " + f.rsplit("to", 1)[-1].strip()
+        else:
+            tag = f[:30]
+        if tag not in tags:
+            tags.append(tag)
+    return ", ".join(tags)
+
+
+def run_outlines(seed: int = 0) -> list[dict]:
+    """Mesh one outline of every family of :mod:`quadmesh.outlines`; print one line each
+    (or the stage and reason of the failure) and return the rows."""
+    from .errors import QuadmeshError
+    from .outlines import stress_outlines
+
+    rows = []
+    print(
+        f"{'outline':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}  fixes"
+    )
+    for name, poly in stress_outlines(seed).items():
+        t0 = time.perf_counter()
+        try:
+            r = mesh_polygon(poly)
+        except QuadmeshError as exc:
+            dt = time.perf_counter() - t0
+            print(f"{name:22s} {len(poly):5d} {dt:8.2f} failed in {exc.stage}: {exc}")
+            rows.append({"name": name, "n": len(poly), "total": dt, "failed": exc.stage})
+            continue
+        dt = time.perf_counter() - t0
+        q = r.quality
+        fixes = _fix_tags(f for p in r.pieces for f in p.fixes)
+        print(
+            f"{name:22s} {len(poly):5d} {dt:8.2f} {q.n_quads:9d} {q.n_quads / len(poly):8.0f} "
+            f"{max(p.n_used for p in r.pieces):6d}  {fixes}"
+        )
+        rows.append({"name": name, "n": len(poly), "total": dt, "quads": q.n_quads})
+    ok = [r for r in rows if "failed" not in r]
+    print(f"{len(ok)} of {len(rows)} outlines meshed and verified")
+    return rows
+
+
 def run_disk(sizes: tuple[int, ...] = (10, 100, 1000)) -> None:
     """Time the disk construction (Lemma 2.2 and the piece meshes) on random arcs."""
     from .disk import disk_mesh
@@ -116,12 +168,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--examples", action="store_true", help="mesh every bundled example")
     ap.add_argument("--disk", action="store_true", help="benchmark the disk construction")
+    ap.add_argument(
+        "--outlines", action="store_true", help="mesh generated outlines (quadmesh.outlines)"
+    )
+    ap.add_argument("--seed", type=int, default=0, help="seed of --outlines")
     args = ap.parse_args(argv)
     if args.examples:
         run_examples()
         return 0
     if args.disk:
         run_disk()
+        return 0
+    if args.outlines:
+        run_outlines(args.seed)
         return 0
     rows = run(args.max_n, args.repeat)
     stages = ["conformal", "intervals", "disk", "push_forward", "thin", "verify"]

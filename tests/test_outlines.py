@@ -98,3 +98,30 @@ def test_outline_meshes_within_budget(name):
     assert per_vertex < 1500, per_vertex
     # the local repair keeps the paper's n = 2 on these outlines
     assert all(p.n_used == 2 for p in r.pieces)
+
+
+def test_stress_outlines_are_valid_and_seeded():
+    from quadmesh.outlines import OUTLINE_FAMILIES, stress_outlines
+    from quadmesh.polygon import signed_area, validate_polygon
+
+    a, b, c = stress_outlines(0), stress_outlines(0), stress_outlines(1)
+    assert list(a) == list(OUTLINE_FAMILIES)
+    for name, poly in a.items():
+        p = validate_polygon(poly)
+        assert p.n == len(poly) >= 4, name  # no vertex dropped: already clean
+        assert signed_area(poly[:, 0] + 1j * poly[:, 1]) > 0, name  # counter-clockwise
+        assert np.array_equal(poly, b[name]), name
+    differ = [k for k in a if a[k].shape != c[k].shape or not np.allclose(a[k], c[k])]
+    assert len(differ) >= len(a) - 1  # every random family changes with the seed
+
+
+@pytest.mark.parametrize("family", ["pixel_contour", "quantised_contour"])
+def test_traced_contours_mesh(family):
+    """Staircase contours traced from images: many 90°/270° corners one pixel apart."""
+    from quadmesh.outlines import stress_outlines
+
+    poly = stress_outlines(0)[family]
+    r = mesh_polygon(poly)
+    assert r.verification.ok
+    assert r.quality.n_angles_outside == 0
+    assert r.quality.n_quads / len(poly) < 1500
