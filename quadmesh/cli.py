@@ -142,6 +142,11 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         print("timings:")
         for stage, sec in result.timings.items():
             print(f"  {stage:<20s} {sec:8.3f} s")
+        fixes = list(dict.fromkeys(f for piece in result.pieces for f in piece.fixes))
+        if fixes:
+            print("adaptive fixes:")
+            for f in fixes:
+                print(f"  {f}")
     if args.png is not None:
         from .render import render_png
 
