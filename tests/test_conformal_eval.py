@@ -79,8 +79,9 @@ def test_push_forward_workload_matches_direct(star_map: DiskMap) -> None:
     """The pipeline's map_clusters call on a real disk mesh, checked on samples."""
     fm = star_map
     theta = np.mod(fm.theta, 2 * np.pi)
-    intervals, _ = pipeline.piece_intervals(theta, [], MeshOptions())
-    disk = disk_mesh(intervals, A=16, n=2, depth_step=1.0, depth_growth=2.0)
+    opts = MeshOptions()
+    intervals, _ = pipeline.piece_intervals(theta, [], opts)
+    disk = disk_mesh(intervals, A=opts.lemma_A, n=2, depth_step=1.0, depth_growth=2.0)
     zd = disk.vertices
     f, fp = fm.map_clusters(zd, disk.vertex_piece, disk.piece_center, derivative=True)
     assert np.all(np.isfinite(f))
