@@ -141,6 +141,6 @@ def test_crowded_intervals_regression_glyph_s() -> None:
     assert 4.0 * iv[:, 1].min() > MIN_EXPANDED_ARC and iv[:, 1].min() < 1e-10
     D = disk_mesh(iv, A=16.0, n=2, depth_step=0.25, inner_height=1.0, depth_growth=2.0)
     _check_disk_mesh(D)
-    iv = _crowded_intervals(16)
+    iv = _crowded_intervals(21)  # 4·min|I| = 3.5e-15 (kmax = 20 works: test_disk_precision)
     with pytest.raises(DiskConstructionError, match="resolution limit"):
         disk_mesh(iv, A=16.0, n=2)

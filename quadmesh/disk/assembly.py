@@ -15,12 +15,23 @@ edge (same canonical index, since ``σ_k`` fixes edge k), quad top ↔ pentagon 
 the shared ray of the neighbouring quad or triangle.  Positions computed twice for one vertex
 are only compared as an assertion.  To keep relative accuracy for tiny pieces near T, each
 Carleson piece is placed in the frame ``φ_x`` of its top corner / apex ``x`` and mapped back.
+
+Precision: the frame points ``x`` (tile vertices), the cover arcs and the tile isometries come
+in extended precision from :func:`build_region`; frames are built in long double and every
+vertex is rounded to complex128 exactly once (:func:`tile_points`, :func:`phi_inv_accurate`),
+so the mesh is as accurate as complex128 positions allow also for arcs of 1e-14 rad.  The
+consistency checks allow, besides :data:`POSITION_RTOL` of the local scale, that output rounding.
+Cells near T smaller than ~1e-14 cannot be told apart in complex128, so every vertex is also
+given exactly as ``frames[vertex_frame] + vertex_offset`` (an extended-precision frame point of
+its piece plus a float64 offset with full relative accuracy): differences of nearby vertices and
+distances to a prevertex on T can be formed from that without cancellation.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,17 +39,26 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import DiskConstructionError
-from ..hyperbolic import phi_inv
 from .canonical import orient_quads
 from .carleson_quad import carleson_quad_mesh, carleson_quad_to_disk
 from .carleson_triangle import depth_sequence, model_triangle_mesh
 from .pentagon import pentagon_mesh
 from .region import KIND_J, RegionW, build_region
-from .tessellation import POSITION_RTOL, phi_accurate
+from .tessellation import (
+    P0_VERTICES_LD,
+    POSITION_RTOL,
+    frame_offsets,
+    phi_accurate,
+    tile_offsets,
+)
 
 __all__ = ["DiskMesh", "TriangleMap", "disk_mesh"]
 
 KIND_NAMES = ("pentagon", "carleson_quadrilateral", "carleson_triangle")
+
+OUTPUT_SLACK = 8.0 * np.finfo(float).eps
+"""Absolute slack of the consistency checks: two complex128 roundings of one point near T
+differ by up to ~2 ulps of 1 (each position is rounded once from an extended-precision frame)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,8 +69,10 @@ class TriangleMap:
     ``[[1, x], [x̄, 1]] · tau_local`` with ``x = frame`` (the apex) — use the factored form
     (``phi_inv(frame, mobius(tau_local, ζ))``) for accuracy on tiny triangles.
     ``inner_vertices``: global indices of the vertices in or on ∂T_i; ``inner_model`` their model
-    coordinates in H; ``center``: the model centre ``c`` of T_i.  The pipeline replaces ``f`` on
-    these vertices by ``h(ζ) = g(c) + (ζ − c)·g'(c)`` with ``g = f∘τ⁻¹`` (§7).
+    coordinates in H; ``center``: the model centre ``c`` of T_i; ``frame_ld``: the apex in
+    extended precision (``frame`` is it rounded; ``1 − |frame|²`` loses digits at 1e-14).
+    The pipeline replaces ``f`` on these vertices by ``h(ζ) = g(c) + (ζ − c)·g'(c)`` with
+    ``g = f∘τ⁻¹`` (§7).
     """
 
     tau_inv: NDArray[np.complex128]
@@ -59,6 +81,7 @@ class TriangleMap:
     inner_vertices: NDArray[np.int64]
     inner_model: NDArray[np.complex128]
     center: complex
+    frame_ld: np.clongdouble
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +105,13 @@ class DiskMesh:
         vertex_piece: (V,) int, a piece containing each vertex.
         depths: the global depth sequence ``0 = d_0 < … < d_M``.
         n: steps per half pentagon side (``N_side = 2n``).
+        frames: (F,) clongdouble frame points: the tile centres, then the top corners ``u0`` of
+            the Carleson quadrilaterals, then the triangle apices.
+        vertex_frame (property): (V,) int, the frame of each vertex.
+        vertex_offset (property): (V,) complex128, ``vertex − frames[vertex_frame]`` with full
+            relative accuracy (``vertices`` is this sum rounded once to complex128; ideal
+            vertices are then normalised to ``|z| = 1``).
+        piece_center_ld: (P,) clongdouble, ``piece_center`` before rounding.
     """
 
     vertices: NDArray[np.complex128]
@@ -97,28 +127,80 @@ class DiskMesh:
     vertex_piece: NDArray[np.int64]
     depths: NDArray[np.float64]
     n: int
+    frames: NDArray[np.clongdouble]
+    piece_center_ld: NDArray[np.clongdouble]
+    _parts: tuple = field(repr=False)
+
+    @cached_property
+    def _frame_offset(self) -> tuple[NDArray[np.int64], NDArray[np.complex128]]:
+        V = self.vertices.size
+        vf = np.empty(V, dtype=np.int64)
+        vo = np.empty(V, dtype=np.complex128)
+        for ids, fr, off in self._parts:
+            vf[ids] = fr
+            vo[ids] = off
+        # ideal vertices: normalise |z| = 1 in long double, offsets consistent with it
+        on = np.flatnonzero(self.on_circle)
+        f = self.frames[vf[on]]
+        zc = f + vo[on]
+        vo[on] = (zc / np.abs(zc) - f).astype(np.complex128)
+        return vf, vo
+
+    @property
+    def vertex_frame(self) -> NDArray[np.int64]:
+        """(V,) index into :attr:`frames` of each vertex (computed on first use)."""
+        return self._frame_offset[0]
+
+    @property
+    def vertex_offset(self) -> NDArray[np.complex128]:
+        """(V,) ``vertex − frames[vertex_frame]`` in float64 with full relative accuracy."""
+        return self._frame_offset[1]
 
     @property
     def n_side(self) -> int:
         """Steps per pentagon side / Carleson top edge."""
         return 2 * self.n
 
+    def exact_vertices(self) -> NDArray[np.clongdouble]:
+        """The vertices in extended precision, ``frames[vertex_frame] + vertex_offset``."""
+        return self.frames[self.vertex_frame] + self.vertex_offset
+
+    def offsets_from(self, points: ArrayLike, index: ArrayLike | None = None) -> NDArray:
+        """``vertex[index] − point`` (complex128) without cancellation, for reference points
+        given in extended precision (e.g. ``piece_center_ld[vertex_piece]`` for series about
+        the piece centres, or prevertices ``e^{iθ}`` with θ in long double): the difference of
+        the long double frame and the point, plus the float64 offset.  ``index`` defaults to all
+        vertices; ``points`` broadcasts against it."""
+        idx = np.arange(self.vertices.size) if index is None else np.asarray(index)
+        p = np.asarray(points).astype(np.clongdouble)
+        return (self.frames[self.vertex_frame[idx]] - p).astype(np.complex128) + (
+            self.vertex_offset[idx]
+        )
+
 
 def _check_close(
     a: NDArray[np.complex128], b: NDArray[np.complex128], what: str, ref: ArrayLike
 ) -> None:
     """Assert that positions computed twice agree relative to the local scale ``1−|ref|``
-    (``ref``: a point of the piece, broadcast against the rows of ``a``)."""
-    ref = np.asarray(ref)
+    (``ref``: a point of the piece, broadcast against the rows of ``a``), up to the complex128
+    rounding :data:`OUTPUT_SLACK` of the output positions."""
+    ref = np.asarray(ref).astype(np.complex128)
     scale = np.maximum(1.0 - np.abs(ref), 1e-300)
     if a.ndim == 2 and ref.ndim == 1:
         scale = scale[:, None]
     err = np.abs(a - b) / scale
-    if err.size and np.max(err) > POSITION_RTOL:
+    if err.size and np.max(np.abs(a - b) - POSITION_RTOL * scale) > OUTPUT_SLACK:
         raise DiskConstructionError(
             f"{what}: shared vertices disagree (relative error {np.max(err):.2e}); "
             "the pieces do not fit together"
         )
+
+
+def _split(a: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Extended-precision points as complex128 ``hi + lo``."""
+    a = np.asarray(a).astype(np.clongdouble)
+    hi = a.astype(np.complex128)
+    return hi, (a - hi).astype(np.complex128)
 
 
 def _mobius_batch(M: NDArray[np.complex128], z: NDArray[np.complex128]) -> NDArray[np.complex128]:
@@ -210,9 +292,12 @@ def disk_mesh(
     graph = coo_matrix((np.ones(a.size), (a, b)), shape=(T * Vp, T * Vp))
     n_pv, labels = connected_components(graph, directed=False)
     pent_gid = labels.reshape(T, Vp)
-    pent_pos = R.tiles.apply_rows(PM.vertices)  # (T, Vp)
-    rep = np.empty(n_pv, dtype=np.complex128)
-    rep[labels] = pent_pos.ravel()
+    pent_c, pent_off = tile_offsets(R.tiles, PM.vertices)  # centres (T,), offsets (T, Vp)
+    ph, pl = _split(pent_c)
+    pent_pos = ph[:, None] + (pl[:, None] + pent_off)  # complex128, rounded once
+    src = np.empty(n_pv, dtype=np.int64)
+    src[labels] = np.arange(labels.size)  # one (tile, vertex) source per glued vertex
+    rep = pent_pos.ravel()[src]
     _check_close(rep[labels], pent_pos.ravel(), "pentagon-pentagon edges", rep[labels])
     pent_quads = pent_gid[np.arange(T)[:, None, None], orient_quads(PM.quads, R.tiles.sigma)]
 
@@ -257,29 +342,42 @@ def disk_mesh(
     q_ids[:, cq_left] = ray_ids[ray_left]
     q_ids[:, cq_right] = ray_ids[ray_right]
     q_ids[:, cq_top] = top_ids  # corners agree with the rays' apices by construction
-    # placement, in the frame of each quad's top corner u0
-    u0 = rep[top_ids[:, 0]]
-    u1 = rep[top_ids[:, -1]]
-    cs = np.array([c.start for c in R.cover])
-    cl = np.array([c.length for c in R.cover])
+    # placement, in the frame of each quad's top corner u0 (tile vertices in long double)
+    k0 = np.where(flip, (q_edge + 1) % 5, q_edge)
+    k1 = np.where(flip, q_edge, (q_edge + 1) % 5)
+    qt = R.tiles[q_tile]
+    u0 = qt.apply_rows(P0_VERTICES_LD[k0][:, None])[:, 0]
+    u1 = qt.apply_rows(P0_VERTICES_LD[k1][:, None])[:, 0]
+    cs, cl = R.cover_ld[:, 0], R.cover_ld[:, 1]
     ea = np.exp(1j * cs[q_cover])
     eb = np.exp(1j * (cs[q_cover] + cl[q_cover]))
     vf, qq = carleson_quad_to_disk(
         CQ,
         np.zeros(Qc, complex),
-        phi_accurate(u0, u1),
-        phi_accurate(u0, ea),
-        phi_accurate(u0, eb),
+        phi_accurate(u0, u1).astype(np.complex128),
+        phi_accurate(u0, ea).astype(np.complex128),
+        phi_accurate(u0, eb).astype(np.complex128),
         -np.ones(Qc),
         tol=POSITION_RTOL,
     )
-    q_pos = phi_inv(u0[:, None], vf)
+    q_off = frame_offsets(u0[:, None], vf)
+    qh, ql = _split(u0)
+    q_pos = qh[:, None] + (ql[:, None] + q_off)
+    u0_ld = u0
     base = CQ.sides["base"]
     q_pos[:, base] /= np.abs(q_pos[:, base])
+    u0 = u0.astype(np.complex128)
+    u1 = u1.astype(np.complex128)
     _check_close(q_pos[:, cq_top], rep[top_ids], "Carleson quad tops on pentagon edges", u0)
     ray_pos = np.empty((NR, Md + 2), dtype=np.complex128)
+    ray_off = np.empty((NR, Md + 2), dtype=np.complex128)
+    ray_frame = np.empty(NR, dtype=np.int64)
     ray_pos[ray_right] = q_pos[:, cq_right]
+    ray_off[ray_right] = q_off[:, cq_right]
+    ray_frame[ray_right] = T + np.arange(Qc)
     ray_pos[ray_left] = q_pos[:, cq_left]
+    ray_off[ray_left] = q_off[:, cq_left]
+    ray_frame[ray_left] = T + np.arange(Qc)
     _check_close(
         q_pos[:-1, cq_right][shared],
         q_pos[1:, cq_left][shared],
@@ -305,25 +403,34 @@ def disk_mesh(
     nxt += Tr * free_t.size
     t_ids[:, tl] = ray_ids[t_left_ray]
     t_ids[:, tr_] = ray_ids[t_right_ray]
+    apex_ld = R.crossings_ld[t_cross]
     apex = rep[apex_ids]
-    lf = np.array([t.left_foot for t in R.triangles], dtype=np.complex128)
-    rf = np.array([t.right_foot for t in R.triangles], dtype=np.complex128)
+    _check_close(apex_ld.astype(np.complex128), apex, "triangle apices at pentagon vertices", apex)
+    lf = np.exp(1j * cs[(t_cross + 1) % C])  # start of Y = X_{i+1}
+    rf = np.exp(1j * (cs[t_cross] + cl[t_cross]))  # end of X = X_i
     w_model = 1j * (1.0 + math.sqrt(2.0))
     tau_local = (
         _three_point_maps(
             np.array([-1.0, 1.0, w_model], dtype=np.complex128),
             np.stack(
-                [phi_accurate(apex, lf), phi_accurate(apex, rf), np.zeros(Tr, complex)], axis=1
+                [
+                    phi_accurate(apex_ld, lf).astype(np.complex128),
+                    phi_accurate(apex_ld, rf).astype(np.complex128),
+                    np.zeros(Tr, complex),
+                ],
+                axis=1,
             ),
         )
         if Tr
         else np.zeros((0, 2, 2), complex)
     )
-    t_pos = (
-        phi_inv(apex[:, None], _mobius_batch(tau_local, TM.vertices[None, :]))
+    t_off = (
+        frame_offsets(apex_ld[:, None], _mobius_batch(tau_local, TM.vertices[None, :]))
         if Tr
         else (np.zeros((0, TM.vertices.size), complex))
     )
+    th, tlo = _split(apex_ld)
+    t_pos = th[:, None] + (tlo[:, None] + t_off)
     tb = np.asarray(TM.base)
     t_pos[:, tb] /= np.abs(t_pos[:, tb])
     _check_close(t_pos[:, tl], ray_pos[t_left_ray], "triangle left sides", apex)
@@ -342,6 +449,14 @@ def disk_mesh(
     on_circle[q_ids[:, base]] = True
     on_circle[t_ids[:, tb]] = True
     verts[on_circle] /= np.abs(verts[on_circle])
+    frames = np.concatenate([pent_c, u0_ld, apex_ld]).astype(np.clongdouble)
+    # (vertex ids, frame ids, offsets) per source; scattered on first use (DiskMesh.vertex_offset)
+    parts = (
+        (np.arange(n_pv), src // Vp, pent_off.ravel()[src]),
+        (ray_ids[:, 1:], ray_frame[:, None], ray_off[:, 1:]),
+        (q_ids[:, free_q], (T + np.arange(Qc))[:, None], q_off[:, free_q]),
+        (t_ids[:, free_t], (T + Qc + np.arange(Tr))[:, None], t_off[:, free_t]),
+    )
 
     quads = np.concatenate(
         [pent_quads.reshape(-1, 4), cq_quads.reshape(-1, 4), tri_quads.reshape(-1, 4)]
@@ -358,9 +473,8 @@ def disk_mesh(
             T + Qc + np.repeat(np.arange(Tr), nq_t),
         ]
     )
-    piece_center = np.concatenate(
-        [R.tiles.apply_rows(np.zeros(1))[:, 0], q_pos[:, cq_top[ns // 2]], apex]
-    )
+    piece_center_ld = np.concatenate([pent_c, u0_ld + q_off[:, cq_top[ns // 2]], apex_ld])
+    piece_center = piece_center_ld.astype(np.complex128)
     vertex_piece = np.empty(V, dtype=np.int64)
     vertex_piece[quads.ravel()] = np.repeat(piece, 4)
 
@@ -401,6 +515,7 @@ def disk_mesh(
             inner_vertices=t_ids[k, inner_idx],
             inner_model=np.asarray(TM.vertices)[inner_idx],
             center=model_c,
+            frame_ld=apex_ld[k],
         )
         for k in range(Tr)
     ]
@@ -418,4 +533,7 @@ def disk_mesh(
         vertex_piece=vertex_piece,
         depths=depths,
         n=n,
+        frames=frames,
+        piece_center_ld=piece_center_ld,
+        _parts=parts,
     )

@@ -23,6 +23,11 @@ Given arcs ``I_j`` of T whose A-fold concentric expansions are disjoint and shor
 5. A Carleson triangle sits at every crossing of two non-``J`` cover arcs.
 
 Everything is local: the work is proportional to the number of pieces (Lemma 2.3).
+
+Precision: the tiles (products of reflections) and all arcs are computed in extended precision
+(np.longdouble / np.clongdouble, eps 1.1e-19), so that the consistency checks hold for arcs down
+to :data:`MIN_EXPANDED_ARC`; the public arrays of :class:`RegionW` are rounded to float64 except
+``tiles``, ``cover_ld`` and ``crossings_ld``, which the mesh assembly uses.
 """
 
 from __future__ import annotations
@@ -36,11 +41,14 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import DiskConstructionError
 from ..hyperbolic import Isometry, phi
 from .tessellation import (
-    EDGE_MIDPOINTS,
+    EDGE_MIDPOINTS_LD,
     P0_VERTICES,
+    P0_VERTICES_LD,
+    PI_LD,
     POSITION_RTOL,
     REFLECTIONS,
     TWO_PI,
+    TWO_PI_LD,
     arc_contains_point,
     arcs_match,
     grow_tiles,
@@ -66,12 +74,16 @@ __all__ = [
 
 KIND_J, KIND_JL, KIND_JR, KIND_K = "J", "Jl", "Jr", "K"
 
-MIN_EXPANDED_ARC = 1e-11
+MIN_EXPANDED_ARC = 5e-15
 """Smallest ``√A·|I_j|`` (radians) that :func:`build_region` accepts.  Tiles are isometries of
 D stored as 2×2 matrices, so a tile of Euclidean size ``s`` near T has vertices with relative
-errors of about ``30·eps/s`` (measured: the construction passes every consistency check and
-the conformity/angle tests for all of 40 random single intervals and 3-interval clusters with
-``√A·|I| = 1e-11``, and fails for ~10 % at ``6e-12``, 50–80 % at ``2e-12``, all at ``4e-13``)."""
+errors of about ``30·eps/s``.  In float64 that limited the construction to ``√A·|I| ≥ 1e-11``
+(all of 40 random single intervals and 3-interval clusters passed at 1e-11, 13/40 at 2e-12,
+none at 1e-13); tiles, arcs and frames are now kept in extended precision (eps 1.1e-19) and
+the measured pass rate is 40/40 at 1e-11, 1e-12, 1e-13, 3e-14, 1e-14, 5e-15, 3e-15 and 2e-15
+and 38/40 at 1e-15 (Carleson top lengths off by 1.2e-3; tests/test_disk_precision.py).
+Below ~1e-12 the complex128 ``vertices`` of the mesh no longer resolve the cells near T;
+``DiskMesh.frames``/``vertex_offset`` do."""
 
 
 @dataclass(frozen=True)
@@ -80,7 +92,8 @@ class CoverArc:
 
     ``kind`` is ``"J"``, ``"Jl"``, ``"Jr"`` or ``"K"``; ``interval`` the index j of the chain for
     J/Jl/Jr arcs (-1 for K).  ``start``/``length``: the arc (radians, CCW).  ``a``/``b``: the
-    ideal endpoints of its geodesic at the start and at the end of the arc.
+    ideal endpoints of its geodesic at the start and at the end of the arc.  (Rounded to
+    float64; the extended-precision arcs are ``RegionW.cover_ld``.)
     """
 
     kind: str
@@ -183,7 +196,8 @@ class RegionW:
         gamma: (m, 2) complex ideal endpoints of ``γ_j``: (start of J_j, end of J_j).
         cover: the cover arcs ``X_i`` in circular order.
         crossings: (C,) complex, ``p_i = γ(X_i) ∩ γ(X_{i+1})`` (indices mod C).
-        tiles: stacked isometries of the pentagons; ``tile_neighbour`` (T, 5),
+        tiles: stacked isometries of the pentagons (clongdouble matrices); ``tile_neighbour``
+            (T, 5),
             ``tile_edge_cover`` (T, 5) as in :class:`RightPentagon`.
         cover_edges: per cover arc, (m_i, 2) int array of (pentagon, edge) along its geodesic
             from the arc's start side to its end side.
@@ -191,6 +205,8 @@ class RegionW:
         quad_of_cover: per cover arc, the indices of its quads in order (empty for J).
         chain_tiles: (m, 3) pentagon indices of (P_l, P0, P_r) of every γ_j (P_l next to J^l).
         lemma21_ratio: |J_j| / |√A I_j| (Lemma 2.1's constant, measured).
+        cover_ld: (C, 2) longdouble ``(start, length)`` of the cover arcs.
+        crossings_ld: (C,) clongdouble crossings ``p_i`` (tile vertices).
     """
 
     intervals: NDArray[np.float64]
@@ -210,6 +226,8 @@ class RegionW:
     quad_of_cover: tuple[NDArray[np.int64], ...]
     chain_tiles: NDArray[np.int64]
     lemma21_ratio: NDArray[np.float64] = field(repr=False)
+    cover_ld: NDArray[np.longdouble] = field(repr=False, default=None)
+    crossings_ld: NDArray[np.clongdouble] = field(repr=False, default=None)
 
     @property
     def m(self) -> int:
@@ -241,9 +259,10 @@ class RegionW:
 
 
 # --------------------------------------------------------------------------- helpers
-def _validate(intervals: ArrayLike, A: float) -> NDArray[np.float64]:
+def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
     try:
-        iv = np.asarray(intervals, dtype=float)
+        iv = np.asarray(intervals)
+        iv = iv.astype(np.longdouble if iv.dtype == np.longdouble else float)
     except (TypeError, ValueError) as exc:
         raise DiskConstructionError(f"intervals must be a numeric (m, 2) array: {exc}") from exc
     if iv.ndim != 2 or iv.shape[1] != 2 or iv.shape[0] < 1:
@@ -263,19 +282,19 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.float64]:
     if np.any(small):
         j = int(np.argmin(iv[:, 1]))
         raise DiskConstructionError(
-            f"{int(small.sum())} interval(s) too small for the disk construction in double "
+            f"{int(small.sum())} interval(s) too small for the disk construction in extended "
             f"precision: I_{j} (length {iv[j, 1]:.3g} rad at angle {np.mod(iv[j, 0], TWO_PI):.6f})"
             f" has √A·|I_{j}| = {math.sqrt(A) * iv[j, 1]:.3g} rad, below the resolution limit "
             f"{MIN_EXPANDED_ARC:g} rad (tiles of that size near T carry relative position "
-            "errors of order 1e-3 and the pieces no longer fit)"
+            "errors of order 1e-3 even in extended precision and the pieces no longer fit)"
         )
-    iv = np.column_stack([np.mod(iv[:, 0], TWO_PI), iv[:, 1]])
+    iv = np.column_stack([np.mod(iv[:, 0].astype(np.longdouble), TWO_PI_LD), iv[:, 1]])
     m = iv.shape[0]
     if m > 1:
-        c = np.mod(iv[:, 0] + iv[:, 1] / 2.0, TWO_PI)
+        c = np.mod(iv[:, 0] + iv[:, 1] / 2, TWO_PI_LD)
         order = np.argsort(c)
         cs, ls = c[order], iv[order, 1]
-        gap = np.mod(np.roll(cs, -1) - cs, TWO_PI)
+        gap = np.mod(np.roll(cs, -1) - cs, TWO_PI_LD)
         need = A * (ls + np.roll(ls, -1)) / 2.0
         bad = gap <= need
         if np.any(bad):
@@ -289,7 +308,7 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.float64]:
 
 def _arcs_intersect(s1: ArrayLike, l1: ArrayLike, s2: ArrayLike, l2: ArrayLike):
     """True where the open arcs ``(s1, l1)`` and ``(s2, l2)`` meet (or start together)."""
-    same = np.abs(np.remainder(np.asarray(s1, float) - s2 + math.pi, TWO_PI) - math.pi) < 1e-15
+    same = np.abs(np.remainder(np.asarray(s1) - s2 + PI_LD, TWO_PI_LD) - PI_LD) < 1e-18
     return arc_contains_point(s1, l1, s2) | arc_contains_point(s2, l2, s1) | same
 
 
@@ -330,9 +349,9 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     """
     iv = _validate(intervals, A)
     m = iv.shape[0]
-    sq = math.sqrt(A)
-    centre = iv[:, 0] + iv[:, 1] / 2.0
-    es, el = np.mod(centre - sq * iv[:, 1] / 2.0, TWO_PI), sq * iv[:, 1]
+    sq = np.sqrt(np.longdouble(A))
+    centre = iv[:, 0] + iv[:, 1] / 2
+    es, el = np.mod(centre - sq * iv[:, 1] / 2, TWO_PI_LD), sq * iv[:, 1]
     js, jl, _, _ = minimal_containing_arc(es, el)
     ratio = jl / el
 
@@ -340,10 +359,10 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     # a point 0.05 above the top point (any point that close lies in a tile with an edge on
     # γ_j, also next to a tile vertex on γ_j); 1 − |top| = 2t/(1+t), t = tan(|J|/4), is used
     # directly so that the distance to 0 keeps its relative accuracy for tiny J
-    t_ = np.tan(jl / 4.0)
-    q_ = 2.0 * t_ / (1.0 + t_)
-    dtop = np.log((2.0 - q_) / q_)
-    above = np.exp(1j * (js + jl / 2.0)) * np.tanh(np.maximum(dtop - 0.05, 0.0) / 2.0)
+    t_ = np.tan(jl / 4)
+    q_ = 2 * t_ / (1 + t_)
+    dtop = np.log((2 - q_) / q_)
+    above = np.exp(1j * (js + jl / 2)) * np.tanh(np.maximum(dtop - 0.05, 0.0) / 2)
     g0 = locate(above)
     fs, fl = tile_edge_far_arcs(g0)
     match = arcs_match(fs, fl, js[:, None], jl[:, None])
@@ -406,13 +425,13 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     chain_table = _ArcTable(chain_s, chain_l)
     Js, Jls = J[order, 0], J[order, 1]
     Je = Js + Jls
-    gap_len = np.mod(np.roll(Js, -1) - Je, TWO_PI)
+    gap_len = np.mod(np.roll(Js, -1) - Je, TWO_PI_LD)
     if m == 1:
-        gap_len = np.array([TWO_PI - Jls[0]])
+        gap_len = np.array([TWO_PI_LD - Jls[0]])
 
     def gap_of(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
         i = np.mod(np.searchsorted(Js, s, side="right") - 1, m)
-        rel = np.mod(s - Je[i], TWO_PI)
+        rel = np.mod(s - Je[i], TWO_PI_LD)
         inside = (rel > 0.0) & (rel + ell < gap_len[i])
         return np.where(inside, i, -1)
 
@@ -443,18 +462,24 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
 
     # ---- greedy overlap-≤2 cover in circular order
     cover: list[CoverArc] = []
+    cov_ld: list[tuple[np.longdouble, np.longdouble]] = []
+
+    def add_cover(kind: str, j: int, start: np.longdouble, length: np.longdouble) -> None:
+        cover.append(CoverArc(kind, j, float(start), float(length)))
+        cov_ld.append((start, length))
+
     cg_order = np.argsort(cgap, kind="stable")
     cg_bounds = np.searchsorted(cgap[cg_order], np.arange(m + 1))
     for pos, k in enumerate(order):
         nxt = order[(pos + 1) % m]
-        cover.append(CoverArc(KIND_JL, int(k), float(Jl[k, 0]), float(Jl[k, 1])))
-        cover.append(CoverArc(KIND_J, int(k), float(J[k, 0]), float(J[k, 1])))
-        cover.append(CoverArc(KIND_JR, int(k), float(Jr[k, 0]), float(Jr[k, 1])))
+        add_cover(KIND_JL, int(k), Jl[k, 0], Jl[k, 1])
+        add_cover(KIND_J, int(k), J[k, 0], J[k, 1])
+        add_cover(KIND_JR, int(k), Jr[k, 0], Jr[k, 1])
         sel = cg_order[cg_bounds[pos] : cg_bounds[pos + 1]]
-        rs = np.mod(cs[sel] - Je[pos], TWO_PI)
+        rs = np.mod(cs[sel] - Je[pos], TWO_PI_LD)
         re = rs + cl[sel]
-        r_ = (Jr[k, 0] + Jr[k, 1] - Je[pos]) % TWO_PI
-        q_ = (Jl[nxt, 0] - Je[pos]) % TWO_PI
+        r_ = (Jr[k, 0] + Jr[k, 1] - Je[pos]) % TWO_PI_LD
+        q_ = (Jl[nxt, 0] - Je[pos]) % TWO_PI_LD
         steps = 0
         while r_ <= q_:
             ok = (rs < r_) & (r_ < re)
@@ -464,18 +489,14 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
                     "gap contains the current point"
                 )
             best = np.flatnonzero(ok)[np.lexsort((-cl[sel][ok], -re[ok]))[0]]
-            cover.append(
-                CoverArc(
-                    KIND_K, -1, float(np.mod(Je[pos] + rs[best], TWO_PI)), float(cl[sel][best])
-                )
-            )
+            add_cover(KIND_K, -1, np.mod(Je[pos] + rs[best], TWO_PI_LD), cl[sel][best])
             r_ = re[best]
             steps += 1
             if steps > 100000:
                 raise DiskConstructionError("cover construction did not terminate")
     C = len(cover)
-    cvs = np.array([c.start for c in cover])
-    cvl = np.array([c.length for c in cover])
+    cover_ld = np.array(cov_ld, dtype=np.longdouble).reshape(C, 2)
+    cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
     xs, xl = np.roll(cvs, 1), np.roll(cvl, 1)
     no_overlap = ~arc_contains_point(xs, xl, cvs)
     if np.any(no_overlap):
@@ -502,7 +523,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     rows, ks = np.nonzero(lab >= 0)
     cov = lab[rows, ks]
     sig = tiles.sigma[rows]
-    mid = tiles[rows].apply_rows(EDGE_MIDPOINTS[ks][:, None])[:, 0]
+    mid = tiles[rows].apply_rows(EDGE_MIDPOINTS_LD[ks][:, None])[:, 0]
     b_top = top_point(cvs[cov], cvl[cov])
     direction = np.exp(1j * (cvs[cov] + cvl[cov]))  # endpoint b
     local = phi(b_top, mid) * np.conj(phi(b_top, direction))
@@ -524,8 +545,8 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
 
     # corners: the first corner (towards the arc's start) of edge k is V_k unless g reverses
     g_e = tiles[rows]
-    va = g_e.apply_rows(P0_VERTICES[ks][:, None])[:, 0]
-    vb = g_e.apply_rows(P0_VERTICES[(ks + 1) % 5][:, None])[:, 0]
+    va = g_e.apply_rows(P0_VERTICES_LD[ks][:, None])[:, 0]
+    vb = g_e.apply_rows(P0_VERTICES_LD[(ks + 1) % 5][:, None])[:, 0]
     e_start = np.where(sig, vb, va)
     e_end = np.where(sig, va, vb)
     first_e, last_e = bounds[:-1], bounds[1:] - 1
@@ -545,6 +566,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         raise DiskConstructionError(
             f"pentagon boundary edges on cover arcs {i} and {i + 1} do not chain at p_{i}"
         )
+    crossings_ld = p_end
     crossings = p_end.astype(np.complex128)
     starts = [e_start[bounds[i] : bounds[i + 1]] for i in range(C)]
     ends = [e_end[bounds[i] : bounds[i + 1]] for i in range(C)]
@@ -616,12 +638,12 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     edge_cover = np.where(lab >= 0, lab, -1)
     gamma = np.stack([np.exp(1j * J[:, 0]), np.exp(1j * (J[:, 0] + J[:, 1]))], axis=1)
     return RegionW(
-        intervals=iv,
+        intervals=iv.astype(float),
         A=float(A),
-        J=J,
-        Jl=Jl,
-        Jr=Jr,
-        gamma=gamma,
+        J=J.astype(float),
+        Jl=Jl.astype(float),
+        Jr=Jr.astype(float),
+        gamma=gamma.astype(np.complex128),
         cover=tuple(cover),
         crossings=crossings,
         tiles=tiles,
@@ -632,22 +654,23 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         triangles=tuple(triangles),
         quad_of_cover=tuple(quad_of_cover),
         chain_tiles=chain_tiles,
-        lemma21_ratio=ratio,
+        lemma21_ratio=ratio.astype(float),
+        cover_ld=cover_ld,
+        crossings_ld=crossings_ld,
     )
 
 
 def crossing_check(region: RegionW) -> NDArray[np.float64]:
     """Angles (degrees) at which consecutive cover geodesics cross, computed at ``p_i`` in the
-    frame ``φ_{p_i}`` (where geodesics through 0 are diameters).  All should be 90."""
-    C = len(region.cover)
-    out = np.empty(C)
-    for i in range(C):
-        p = region.crossings[i]
-        X, Y = region.cover[i], region.cover[(i + 1) % C]
-        dx = phi_accurate(p, X.b) - phi_accurate(p, X.a)
-        dy = phi_accurate(p, Y.b) - phi_accurate(p, Y.a)
-        out[i] = math.degrees(abs(math.remainder(np.angle(dy / dx), math.pi)))
-    return out
+    frame ``φ_{p_i}`` (where geodesics through 0 are diameters).  All should be 90.
+    Evaluated in extended precision (``crossings_ld``, ``cover_ld``)."""
+    p = region.crossings_ld
+    s, ell = region.cover_ld[:, 0], region.cover_ld[:, 1]
+    a, b = np.exp(1j * s), np.exp(1j * (s + ell))
+    dx = phi_accurate(p, b) - phi_accurate(p, a)
+    dy = phi_accurate(p, np.roll(b, -1)) - phi_accurate(p, np.roll(a, -1))
+    ang = np.angle(dy / dx).astype(float)
+    return np.degrees(np.abs(np.remainder(ang + math.pi / 2, math.pi) - math.pi / 2))
 
 
 def _below(a: NDArray[np.complex128], b: NDArray[np.complex128], z: NDArray[np.complex128]):

@@ -11,11 +11,16 @@ that does not contain the tile; I5 is the set of all far arcs and their compleme
 
 Everything that can be is done in the canonical frame of P0 and moved by the tile isometries,
 so that tiny tiles near T (intervals of 1e-8 rad and less from conformal maps) are handled with
-relative, not absolute, accuracy as far as float64 disk coordinates allow: a tile of Euclidean
-size ``s`` is a product of ~log(1/s) reflections with entries ~``s^{-1/2}``, so its vertices carry
-relative errors ~30·eps/s (see ``POSITION_RTOL`` and ``region.MIN_EXPANDED_ARC``).  All searches
-are *local*: their cost depends on the hyperbolic distance from 0 and on the number of pieces,
-never on the size of the tessellation.
+relative, not absolute, accuracy.  A tile of Euclidean size ``s`` is a product of ~log(1/s)
+reflections with entries ~``s^{-1/2}``, so its vertices carry relative errors ~30·eps/s (see
+``POSITION_RTOL`` and ``region.MIN_EXPANDED_ARC``).  Therefore the reflections, the tile
+isometries, point location and all arcs (angles modulo :data:`TWO_PI_LD`) are kept in extended
+precision (np.longdouble / np.clongdouble: 80-bit on x86-64, eps 1.1e-19, so 3e-4 relative at
+``s = 1e-14`` instead of 3e-4 at 1e-11 in float64).  Bulk evaluations stay float64: a mesh vertex
+is a long double frame point (tile centre, piece corner) plus a float64 offset computed without
+cancellation (:func:`tile_offsets`, :func:`frame_offsets`), and tile deduplication bins float64
+``hi + lo`` splits of the centres.  All searches are *local*: their cost depends on the hyperbolic
+distance from 0 and on the number of pieces, never on the size of the tessellation.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import DiskConstructionError
 from ..hyperbolic import Isometry
+from ..hyperbolic.isometry import normalize_matrix
 
 __all__ = [
     "EDGE_CENTERS",
@@ -37,87 +43,124 @@ __all__ = [
     "EDGE_RADIUS",
     "GROUP11",
     "P0_VERTICES",
+    "PI_LD",
     "POSITION_RTOL",
     "REFLECTIONS",
     "TWO_PI",
+    "TWO_PI_LD",
     "L",
     "TileSet",
     "arc_contains_arc",
     "arc_contains_point",
     "arcs_match",
     "brute_force_i5_arcs",
+    "frame_offsets",
     "generate_tiles",
     "grow_tiles",
     "locate",
     "minimal_containing_arc",
     "one_minus_abs2",
     "phi_accurate",
+    "phi_inv_accurate",
     "tile_edge_far_arcs",
+    "tile_offsets",
+    "tile_points",
     "top_point",
 ]
 
 TWO_PI = 2.0 * math.pi
 
+PI_LD: np.longdouble = np.longdouble(4) * np.arctan(np.longdouble(1))
+"""π in extended precision (np.longdouble, 80-bit on x86-64: eps 1.1e-19)."""
+TWO_PI_LD: np.longdouble = 2 * PI_LD
+"""2π in extended precision: all arc arithmetic of the construction is done modulo this."""
+
 POSITION_RTOL = 1e-3
 """Relative tolerance of the consistency checks between positions computed twice (relative to
 the local scale ``1−|z|``).  Tile isometries are products of ~log(1/s) reflections with entries
 ~``s^{-1/2}`` for tiles of Euclidean size ``s``, so their vertices carry relative errors of about
-``30·eps/s`` — 3e-4 at ``s = 1e-11``; a mismatch of the pieces would be of order 1."""
+``30·eps/s``: 3e-4 at ``s = 1e-11`` in float64, hence the tiles and the arcs are kept in extended
+precision (``eps = 1.1e-19``: 3e-4 at ``s = 1e-14``); a mismatch of the pieces would be of
+order 1."""
 
+_LD = np.longdouble
 L: float = math.acosh(1.0 + 2.0 * math.cos(2.0 * math.pi / 5.0))
 """Side length of the right regular pentagon, ``arccosh(1+2cos(2π/5)) = 1.0612750619``."""
 
-_RV = math.acosh(1.0 / math.tan(math.pi / 5.0))  # centre-vertex distance: cosh R_V = cot(π/5)
-_RM = math.acosh(math.cos(math.pi / 4.0) / math.sin(math.pi / 5.0))  # centre-edge midpoint
-_EV = math.tanh(_RV / 2.0)  # Euclidean radius of the vertices, 0.397975
-_EM = math.tanh(_RM / 2.0)  # Euclidean radius of the edge midpoints, 0.303559
+# P0's geometry in extended precision (the reflections must be exact to long double accuracy:
+# an error δ in σ_k moves a tile ``n`` reflections deep by ~δ·e^n relative to its size)
+_RV = np.arccosh(1 / np.tan(PI_LD / 5))  # centre-vertex distance: cosh R_V = cot(π/5)
+_RM = np.arccosh(np.cos(PI_LD / 4) / np.sin(PI_LD / 5))  # centre-edge midpoint
+_EV = np.tanh(_RV / 2)  # Euclidean radius of the vertices, 0.397975
+_EM = np.tanh(_RM / 2)  # Euclidean radius of the edge midpoints, 0.303559
 
 _K = np.arange(5)
-P0_VERTICES: NDArray[np.complex128] = _EV * np.exp(2j * np.pi * _K / 5.0)
+_ROT_V = np.exp(1j * (2 * PI_LD * _K.astype(_LD) / 5))
+_DIR_LD = np.exp(1j * (2 * PI_LD * _K.astype(_LD) / 5 + PI_LD / 5))
+P0_VERTICES_LD: NDArray[np.clongdouble] = _EV * _ROT_V
+"""Vertices ``V_k`` of P0 in extended precision."""
+EDGE_MIDPOINTS_LD: NDArray[np.clongdouble] = _EM * _DIR_LD
+"""Edge midpoints of P0 in extended precision."""
+EDGE_CENTERS_LD: NDArray[np.clongdouble] = (1 + _EM**2) / (2 * _EM) * _DIR_LD
+"""Centres of the circles carrying P0's edges, in extended precision."""
+_EC_ABS = (1 + _EM**2) / (2 * _EM)
+EDGE_RADIUS_LD: np.longdouble = np.sqrt(_EC_ABS**2 - 1)
+_HALF = np.arccos(1 / _EC_ABS)  # angular half-width of an edge's far arc
+EDGE_FAR_START_LD: NDArray[np.clongdouble] = _DIR_LD * np.exp(-1j * _HALF)
+"""Ideal endpoints where the far arcs of P0's edges start (CCW), extended precision."""
+EDGE_FAR_END_LD: NDArray[np.clongdouble] = _DIR_LD * np.exp(1j * _HALF)
+"""Ideal endpoints where the far arcs of P0's edges end, extended precision."""
+
+P0_VERTICES: NDArray[np.complex128] = P0_VERTICES_LD.astype(np.complex128)
 """Vertices ``V_k`` of the central pentagon P0 (edge ``k`` runs from ``V_k`` to ``V_{k+1}``)."""
-_DIR = np.exp(1j * (2.0 * np.pi * _K / 5.0 + np.pi / 5.0))
-EDGE_MIDPOINTS: NDArray[np.complex128] = _EM * _DIR
+EDGE_MIDPOINTS: NDArray[np.complex128] = EDGE_MIDPOINTS_LD.astype(np.complex128)
 """Hyperbolic midpoints of P0's edges."""
-EDGE_CENTERS: NDArray[np.complex128] = (1.0 + _EM**2) / (2.0 * _EM) * _DIR
+EDGE_CENTERS: NDArray[np.complex128] = EDGE_CENTERS_LD.astype(np.complex128)
 """Euclidean centres of the circles carrying P0's edges."""
-EDGE_RADIUS: float = float(math.sqrt(abs(EDGE_CENTERS[0]) ** 2 - 1.0))
+EDGE_RADIUS: float = float(EDGE_RADIUS_LD)
 """Common Euclidean radius of those circles."""
-_HALF = math.acos(1.0 / abs(EDGE_CENTERS[0]))  # angular half-width of an edge's far arc
-EDGE_FAR_START: NDArray[np.complex128] = _DIR * np.exp(-1j * _HALF)
+EDGE_FAR_START: NDArray[np.complex128] = EDGE_FAR_START_LD.astype(np.complex128)
 """Ideal endpoint of edge ``k``'s geodesic where its far arc (side away from P0) starts (CCW)."""
-EDGE_FAR_END: NDArray[np.complex128] = _DIR * np.exp(1j * _HALF)
+EDGE_FAR_END: NDArray[np.complex128] = EDGE_FAR_END_LD.astype(np.complex128)
 """Ideal endpoint where edge ``k``'s far arc ends."""
 
-_RM_MAT = np.empty((5, 2, 2), dtype=np.complex128)
-_RM_MAT[:, 0, 0] = EDGE_CENTERS
-_RM_MAT[:, 0, 1] = EDGE_RADIUS**2 - np.abs(EDGE_CENTERS) ** 2
-_RM_MAT[:, 1, 0] = 1.0
-_RM_MAT[:, 1, 1] = -np.conj(EDGE_CENTERS)
-_RM_MAT /= np.sqrt(_RM_MAT[:, 0, 0] * _RM_MAT[:, 1, 1] - _RM_MAT[:, 0, 1] * _RM_MAT[:, 1, 0])[
-    :, None, None
-]
+# reflection in the circle |z − C| = r orthogonal to T: z ↦ (C·z̄ − 1)/(z̄ − C̄), det = r²
+_RM_MAT = np.empty((5, 2, 2), dtype=np.clongdouble)
+_RM_MAT[:, 0, 0] = EDGE_CENTERS_LD
+_RM_MAT[:, 0, 1] = -1
+_RM_MAT[:, 1, 0] = 1
+_RM_MAT[:, 1, 1] = -np.conj(EDGE_CENTERS_LD)
+_RM_MAT /= 1j * EDGE_RADIUS_LD
 REFLECTIONS = Isometry(_RM_MAT, np.ones(5, dtype=bool))
-"""Stack of the 5 reflections ``σ_k`` in the edges of P0 (orientation reversing)."""
+"""Stack of the 5 reflections ``σ_k`` in the edges of P0 (orientation reversing), with
+extended-precision (clongdouble) matrices of determinant 1."""
 
-_G11 = [Isometry.identity()] + [REFLECTIONS[k] for k in range(5)]
+_G11 = [Isometry.identity(dtype=np.clongdouble)] + [REFLECTIONS[k] for k in range(5)]
 _G11 += [REFLECTIONS[k] @ REFLECTIONS[(k + 1) % 5] for k in range(5)]
 GROUP11 = Isometry.stack(_G11)
 """P0 and the 10 tiles touching it (5 across edges, 5 sharing only the vertex ``V_{k+1}``)."""
 
 
 # --------------------------------------------------------------------------- arcs
+def _real(a: ArrayLike) -> NDArray:
+    """``a`` as a float64 array, or as a longdouble array if it is extended precision."""
+    a = np.asarray(a)
+    return a if a.dtype == np.longdouble else a.astype(float)
+
+
 def arc_contains_point(start: ArrayLike, length: ArrayLike, x: ArrayLike) -> NDArray[np.bool_]:
-    """True where the open arc ``(start, length)`` contains the angle ``x`` (broadcast)."""
-    rel = np.mod(np.asarray(x, float) - np.asarray(start, float), TWO_PI)
-    return (rel > 0.0) & (rel < np.asarray(length, float))
+    """True where the open arc ``(start, length)`` contains the angle ``x`` (broadcast; angles
+    in float64 or longdouble, reduced modulo the extended-precision 2π)."""
+    rel = np.mod(_real(x) - _real(start), TWO_PI_LD)
+    return (rel > 0.0) & (rel < _real(length))
 
 
 def arc_contains_arc(
     start: ArrayLike, length: ArrayLike, s: ArrayLike, ell: ArrayLike
 ) -> NDArray[np.bool_]:
     """True where the closed arc ``(s, ell)`` lies inside the closed arc ``(start, length)``."""
-    rel = np.mod(np.asarray(s, float) - np.asarray(start, float), TWO_PI)
-    return rel + np.asarray(ell, float) <= np.asarray(length, float)
+    rel = np.mod(_real(s) - _real(start), TWO_PI_LD)
+    return rel + _real(ell) <= _real(length)
 
 
 def arcs_match(
@@ -127,11 +170,13 @@ def arcs_match(
 
     Distinct T5 geodesics never share an endpoint and are a bounded-below hyperbolic distance
     apart when disjoint, so a relative tolerance of 1e-3 cannot confuse two distinct arcs (it
-    leaves room for the ~30·eps/|arc| rounding of arcs of 1e-11 rad near T).
+    leaves room for the ~30·eps/|arc| rounding of arcs near T: 1e-11 rad in float64, 1e-14 rad
+    in long double).  The absolute floor is a few ulps of 2π in the inputs' precision.
     """
-    s1, l1, s2, l2 = (np.asarray(a, float) for a in (s1, l1, s2, l2))
-    ds = np.mod(s1 - s2 + math.pi, TWO_PI) - math.pi
-    tol = np.maximum(rtol * np.minimum(l1, l2), 4e-15)
+    s1, l1, s2, l2 = (_real(a) for a in (s1, l1, s2, l2))
+    ld = any(a.dtype == np.longdouble for a in (s1, l1, s2, l2))
+    ds = np.mod(s1 - s2 + PI_LD, TWO_PI_LD) - PI_LD
+    tol = np.maximum(rtol * np.minimum(l1, l2), 1e-17 if ld else 4e-15)
     return (np.abs(ds) <= tol) & (np.abs(l1 - l2) <= tol)
 
 
@@ -140,15 +185,17 @@ def top_point(start: ArrayLike, length: ArrayLike) -> NDArray[np.complex128]:
 
     Computed from angles, ``e^{i(s+ℓ/2)}·tan(π/4 − ℓ/4)``, so that ``1−|z| ≈ ℓ/2`` keeps full
     relative accuracy for tiny arcs.  For arcs longer than π this is the point nearest 0 on the
-    geodesic measured on the arc's side (it lies on the far side of 0).
+    geodesic measured on the arc's side (it lies on the far side of 0).  Longdouble arcs give a
+    clongdouble point.
     """
-    s = np.asarray(start, float)
-    ell = np.asarray(length, float)
-    return np.exp(1j * (s + ell / 2.0)) * np.tan(math.pi / 4.0 - ell / 4.0)
+    s = _real(start)
+    ell = _real(length)
+    return np.exp(1j * (s + ell / 2)) * np.tan(PI_LD / 4 - ell / 4)
 
 
-def _angle(z: NDArray[np.complex128]) -> NDArray[np.float64]:
-    return np.mod(np.angle(z), TWO_PI)
+def _angle(z: NDArray) -> NDArray:
+    """Argument in ``[0, 2π)`` (longdouble for clongdouble input)."""
+    return np.mod(np.angle(z), TWO_PI_LD)
 
 
 def tile_edge_far_arcs(
@@ -157,22 +204,23 @@ def tile_edge_far_arcs(
     """Far arcs of the 5 edges of each tile in a stack: ``(start, length)`` arrays of shape (k, 5).
 
     The far arc of edge ``k`` of tile ``g`` is ``g`` of P0's far arc; an orientation-reversing
-    ``g`` swaps its ends.
+    ``g`` swaps its ends.  Extended-precision tiles give longdouble arcs.
     """
-    a = tiles.apply_rows(EDGE_FAR_START)
-    b = tiles.apply_rows(EDGE_FAR_END)
+    a = tiles.apply_rows(EDGE_FAR_START_LD)
+    b = tiles.apply_rows(EDGE_FAR_END_LD)
     rev = tiles.sigma[:, None]
     first = np.where(rev, b, a)
     last = np.where(rev, a, b)
     s = _angle(first)
-    ell = np.mod(_angle(last) - s, TWO_PI)
+    ell = np.mod(_angle(last) - s, TWO_PI_LD)
     return s, ell
 
 
-def _two_square(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``x² = hi + lo`` exactly (Dekker's splitting; no FMA needed)."""
+def _two_square(x: NDArray) -> tuple[NDArray, NDArray]:
+    """``x² = hi + lo`` exactly (Dekker's splitting; no FMA needed), float64 or longdouble."""
     hi = x * x
-    c = 134217729.0 * x  # 2^27 + 1
+    split = 4294967297.0 if x.dtype == np.longdouble else 134217729.0  # 2^32+1 / 2^27+1
+    c = split * x
     xh = c - (c - x)
     xl = x - xh
     lo = ((xh * xh - hi) + 2.0 * xh * xl) + xl * xl
@@ -184,9 +232,11 @@ def one_minus_abs2(a: ArrayLike) -> NDArray[np.float64]:
 
     The naive ``1 − (x² + y²)`` loses ``log10(1/(1−|a|))`` digits; here the squares are split
     into exact double-double parts and the large one is subtracted from 1 first (exact by
-    Sterbenz's lemma), so the result is correct to a few ulps *of itself*.
+    Sterbenz's lemma), so the result is correct to a few ulps *of itself* (float64 or
+    longdouble, following the input).
     """
-    a = np.asarray(a, dtype=np.complex128)
+    a = np.asarray(a)
+    a = a if a.dtype == np.clongdouble else a.astype(np.complex128)
     x, y = np.abs(a.real), np.abs(a.imag)
     big, small = np.maximum(x, y), np.minimum(x, y)
     bh, bl = _two_square(big)
@@ -200,11 +250,75 @@ def phi_accurate(a: ArrayLike, z: ArrayLike) -> NDArray[np.complex128]:
     The denominator is evaluated as ``(1 − |a|²) + ā(a − z)``: ``a − z`` is exact for nearby
     points and ``1 − |a|²`` is computed with :func:`one_minus_abs2`, so the frame map of a tiny
     piece near T keeps relative accuracy (the naive form loses it all at ``1−|a| ≈ 1e-12``).
+    clongdouble if either input is.
     """
-    a = np.asarray(a, dtype=np.complex128)
-    z = np.asarray(z, dtype=np.complex128)
+    ld = np.asarray(a).dtype == np.clongdouble or np.asarray(z).dtype == np.clongdouble
+    dt = np.clongdouble if ld else np.complex128
+    a = np.asarray(a, dtype=dt)
+    z = np.asarray(z, dtype=dt)
     d = a - z
     return -d / (one_minus_abs2(a) + np.conj(a) * d)
+
+
+def _split(a: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """``a = hi + lo`` with complex128 parts (``lo`` is the rounding error of ``hi``)."""
+    hi = a.astype(np.complex128)
+    return hi, (a - hi).astype(np.complex128)
+
+
+def phi_inv_accurate(a: ArrayLike, w: ArrayLike) -> NDArray[np.complex128]:
+    """``φ_a⁻¹(w) = (w + a)/(1 + āw)`` rounded once to complex128, for a frame point ``a``
+    given in extended precision and local coordinates ``w`` (complex128; broadcast).
+
+    Evaluated as ``a + w(1 − |a|²)/(1 + āw)``: the offset from ``a`` is computed in float64 with
+    full relative accuracy (``1 − |a|²`` from :func:`one_minus_abs2` in long double; ``1 + āw``
+    does not cancel for points of a piece seen from its own corner), then added to ``a`` split
+    into float64 ``hi + lo``.  The result is within about one ulp of the exact point, i.e. as
+    accurate as a complex128 position can be, whatever the size of the piece.
+    """
+    a = np.asarray(a).astype(np.clongdouble)
+    hi, lo = _split(a)
+    return hi + (lo + frame_offsets(a, w))
+
+
+def frame_offsets(a: ArrayLike, w: ArrayLike) -> NDArray[np.complex128]:
+    """``φ_a⁻¹(w) − a = w(1 − |a|²)/(1 + āw)`` in float64 with full relative accuracy, for a
+    frame point ``a`` in extended precision and local coordinates ``w`` (broadcast); see
+    :func:`phi_inv_accurate`."""
+    a = np.asarray(a).astype(np.clongdouble)
+    w = np.asarray(w, dtype=np.complex128)
+    k = one_minus_abs2(a).astype(float)
+    return w * k / (1.0 + np.conj(a.astype(np.complex128)) * w)
+
+
+def tile_offsets(
+    tiles: Isometry, z: ArrayLike
+) -> tuple[NDArray[np.clongdouble], NDArray[np.complex128]]:
+    """Centres ``g(0)`` (k,) in extended precision and offsets ``g(z) − g(0)`` (k, p) in float64
+    with full relative accuracy, for a stack of tile isometries and points ``z`` (p,) of P0's
+    frame; see :func:`tile_points`."""
+    M = tiles.M.astype(np.clongdouble)
+    a, b, c, d = M[:, 0, 0], M[:, 0, 1], M[:, 1, 0], M[:, 1, 1]
+    det = (a * d - b * c).astype(np.complex128)
+    c64, d64 = c.astype(np.complex128), d.astype(np.complex128)
+    z = np.asarray(z, dtype=np.complex128)
+    w = np.where(tiles.sigma[:, None], np.conj(z)[None, :], z[None, :])
+    return b / d, w * (det / d64)[:, None] / (c64[:, None] * w + d64[:, None])
+
+
+def tile_points(tiles: Isometry, z: ArrayLike) -> NDArray[np.complex128]:
+    """Images ``g(z)`` of points ``z`` (p,) of P0's frame under a stack of tile isometries
+    (k), rounded once to complex128: shape (k, p).
+
+    With ``g = (a·w + b)/(c·w + d)`` (``w = z`` or ``z̄``), ``g(w) − g(0) = w·det/(d(c·w + d))``
+    has no cancellation (``|c| < |d|`` for isometries of D and ``|w| < 1``), so it is evaluated in
+    float64 from the rounded entries and added to the centre ``g(0) = b/d`` (long double, split
+    into ``hi + lo``).  This is as accurate as :meth:`Isometry.apply_rows` in long double but
+    runs at float64 speed on the many mesh vertices.
+    """
+    centre, off = tile_offsets(tiles, z)
+    hi, lo = _split(centre)
+    return hi[:, None] + (lo[:, None] + off)
 
 
 # --------------------------------------------------------------------------- point location
@@ -213,32 +327,44 @@ def locate(z: ArrayLike, max_steps: int = 400) -> Isometry:
 
     Starting from the identity, reflect across the most violated edge of P0 in the current
     frame until ``g⁻¹(z)`` lies in P0 (DISK.md §2, "point location"); the number of steps is
-    proportional to the hyperbolic distance of ``z`` from 0.  Vectorised over the points.
+    proportional to the hyperbolic distance of ``z`` from 0.  Vectorised over the points; the
+    tiles are extended-precision (clongdouble) isometries.
     """
-    z = np.atleast_1d(np.asarray(z, dtype=np.complex128))
+    z = np.atleast_1d(np.asarray(z)).astype(np.clongdouble)
     if np.any(~np.isfinite(z)) or np.any(np.abs(z) >= 1.0):
         raise DiskConstructionError("point location needs points inside the unit disk")
-    g = Isometry.identity(z.shape[0])
+    g = Isometry.identity(z.shape[0], dtype=np.clongdouble)
     M, sig = g.M.copy(), g.sigma.copy()
     active = np.arange(z.shape[0])
+    w = z.copy()  # g⁻¹(z) of the active points, updated by w ← σ_k(w) as g ← g∘σ_k
     for _ in range(max_steps):
         if active.size == 0:
             break
-        ga = Isometry(M[active], sig[active])
-        w = ga.inverse().apply_rows(z[active][:, None])[:, 0]
-        viol = EDGE_RADIUS - np.abs(w[:, None] - EDGE_CENTERS[None, :])
+        viol = EDGE_RADIUS_LD - np.abs(w[:, None] - EDGE_CENTERS_LD[None, :])
         k = np.argmax(viol, axis=1)
         move = viol[np.arange(active.size), k] > 1e-13
         if not np.any(move):
             break
         idx = active[move]
-        step = Isometry(M[idx], sig[idx]) @ REFLECTIONS[k[move]]
-        M[idx] = step.M
-        sig[idx] = step.sigma
+        km = k[move]
+        M[idx], sig[idx] = _times_reflections(M[idx], sig[idx], km)
+        c = EDGE_CENTERS_LD[km]
+        wc = np.conj(w[move])
+        w = (c * wc - 1) / (wc - np.conj(c))
         active = idx
     else:
         raise DiskConstructionError("point location did not converge (point too close to T)")
-    return Isometry(M, sig)
+    return Isometry(normalize_matrix(M), sig)
+
+
+def _times_reflections(
+    M: NDArray, sigma: NDArray[np.bool_], k: NDArray[np.int64]
+) -> tuple[NDArray, NDArray[np.bool_]]:
+    """``(M, σ)∘σ_k`` row by row without renormalising (the σ_k have determinant 1 to long
+    double accuracy, so products of a few hundred stay normalised to ~1e-17)."""
+    R = REFLECTIONS.M[k]
+    R = np.where(sigma[:, None, None], np.conj(R), R)
+    return M @ R, ~sigma
 
 
 # --------------------------------------------------------------------------- tile sets
@@ -252,6 +378,10 @@ class TileSet:
     distance, so deduplication is scale invariant (works for tiles of any size).  Bins are
     encoded as int64 keys held in a sorted array, and :meth:`add_batch` deduplicates a whole
     batch of candidate tiles (against the stored ones and among themselves) with numpy.
+
+    Isometries and centres are stored in extended precision (clongdouble); the bins and the
+    distance test use a float64 form of each centre (``hi + lo`` and ``1−|z|²``), which resolves
+    tiles down to ~1e-15 at float64 speed.
     """
 
     _R_SWITCH = 0.6  # Cartesian bins inside this radius, (level, angle) bins outside
@@ -259,9 +389,12 @@ class TileSet:
     _AI_OFF = np.int64(1) << np.int64(55)  # offset making angular bin numbers non-negative
 
     def __init__(self) -> None:
-        self._M = np.zeros((0, 2, 2), dtype=np.complex128)
+        self._M = np.zeros((0, 2, 2), dtype=np.clongdouble)
         self._sigma = np.zeros(0, dtype=bool)
-        self._centers = np.zeros(0, dtype=np.complex128)
+        self._centers = np.zeros(0, dtype=np.clongdouble)
+        self._hi = np.zeros(0, dtype=np.complex128)
+        self._lo = np.zeros(0, dtype=np.complex128)
+        self._q = np.zeros(0, dtype=np.float64)
         self._keys_sorted = np.zeros(0, dtype=np.int64)
         self._key_owner = np.zeros(0, dtype=np.int64)
 
@@ -269,19 +402,30 @@ class TileSet:
         return int(self._centers.size)
 
     @property
-    def centers(self) -> NDArray[np.complex128]:
+    def centers(self) -> NDArray[np.clongdouble]:
         """Stored tile centres ``g(0)`` in insertion order."""
         return self._centers
 
     @staticmethod
-    def _level(z: NDArray[np.complex128]) -> NDArray[np.float64]:
-        r = np.abs(z)
-        if np.any(~(r < 1.0 - 4e-16)):
+    def _prep(
+        z: ArrayLike,
+    ) -> tuple[NDArray[np.clongdouble], NDArray[np.complex128], NDArray[np.complex128], NDArray]:
+        """Centres as clongdouble, their float64 split ``hi + lo`` and ``q = 1−|z|²``."""
+        z = np.atleast_1d(np.asarray(z)).astype(np.clongdouble)
+        hi, lo = _split(z)
+        x, y = z.real, z.imag
+        q = ((1 - x * x) - y * y).astype(float)
+        if np.any(~(q > 1e-17)):
             raise DiskConstructionError(
-                "a tile is too close to T for double precision: the intervals are too small "
+                "a tile is too close to T for extended precision: the intervals are too small "
                 "for the disk construction"
             )
-        return 2.0 * np.log((1.0 - r * r) / (1.0 + r))
+        return z, hi, lo, q
+
+    @staticmethod
+    def _level(hi: NDArray[np.complex128], q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``2·log((1−|z|²)/(1+|z|)) = 2·log(1−|z|)``."""
+        return 2.0 * np.log(q / (1.0 + np.abs(hi)))
 
     @classmethod
     def _polar(cls, lv: NDArray[np.int64], ai: NDArray[np.int64]) -> NDArray[np.int64]:
@@ -292,15 +436,15 @@ class TileSet:
         return cls._CART + (xi + 64) * 256 + (yi + 64)
 
     @classmethod
-    def _own_keys(cls, z: NDArray[np.complex128]) -> NDArray[np.int64]:
-        out = np.empty(z.shape, dtype=np.int64)
-        near = np.abs(z) < cls._R_SWITCH
-        zn = z[near]
+    def _own_keys(cls, hi: NDArray[np.complex128], q: NDArray[np.float64]) -> NDArray[np.int64]:
+        out = np.empty(hi.shape, dtype=np.int64)
+        near = np.abs(hi) < cls._R_SWITCH
+        zn = hi[near]
         out[near] = cls._cart(
             np.floor(zn.real * 10.0).astype(np.int64), np.floor(zn.imag * 10.0).astype(np.int64)
         )
-        zf = z[~near]
-        lv = np.floor(cls._level(zf))
+        zf = hi[~near]
+        lv = np.floor(cls._level(zf, q[~near]))
         width = np.exp(lv / 2.0) * 0.5
         out[~near] = cls._polar(
             lv.astype(np.int64), np.floor(np.angle(zf) / width).astype(np.int64)
@@ -308,23 +452,25 @@ class TileSet:
         return out
 
     @classmethod
-    def _query_keys(cls, z: NDArray[np.complex128]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    def _query_keys(
+        cls, hi: NDArray[np.complex128], q: NDArray[np.float64]
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """All bins a match of each point can lie in: ``(point index, key)`` pairs."""
-        r = np.abs(z)
+        r = np.abs(hi)
         pts: list[NDArray[np.int64]] = []
         keys: list[NDArray[np.int64]] = []
         near = np.flatnonzero(r < cls._R_SWITCH + 0.05)
         if near.size:
-            xi = np.floor(z[near].real * 10.0).astype(np.int64)
-            yi = np.floor(z[near].imag * 10.0).astype(np.int64)
+            xi = np.floor(hi[near].real * 10.0).astype(np.int64)
+            yi = np.floor(hi[near].imag * 10.0).astype(np.int64)
             for dx in (-1, 0, 1):
                 for dy in (-1, 0, 1):
                     pts.append(near)
                     keys.append(cls._cart(xi + dx, yi + dy))
         far = np.flatnonzero(r > cls._R_SWITCH - 0.05)
         if far.size:
-            zf = z[far]
-            base = np.floor(cls._level(zf)).astype(np.int64)
+            zf = hi[far]
+            base = np.floor(cls._level(zf, q[far])).astype(np.int64)
             ang = np.angle(zf)
             for dl in (-1, 0, 1):
                 lv = base + dl
@@ -345,9 +491,17 @@ class TileSet:
         return np.concatenate(pts), np.concatenate(keys)
 
     @staticmethod
-    def _close(c: NDArray[np.complex128], z: NDArray[np.complex128]) -> NDArray[np.bool_]:
-        """Hyperbolic distance below ``2·artanh(0.3)``: the same tile."""
-        return np.abs(c - z) <= 0.3 * np.abs(1.0 - np.conj(c) * z)
+    def _close(
+        hi1: NDArray[np.complex128],
+        lo1: NDArray[np.complex128],
+        q1: NDArray[np.float64],
+        hi2: NDArray[np.complex128],
+        lo2: NDArray[np.complex128],
+    ) -> NDArray[np.bool_]:
+        """Hyperbolic distance below ``2·artanh(0.3)``: the same tile.  With ``d = c1 − c2``,
+        ``|1 − c̄1·c2| = |(1−|c1|²) + c̄1·d|`` keeps its accuracy for centres near T."""
+        d = (hi1 - hi2) + (lo1 - lo2)
+        return np.abs(d) <= 0.3 * np.abs(q1 + np.conj(hi1) * d)
 
     @staticmethod
     def _pairs(
@@ -362,17 +516,16 @@ class TileSet:
         within = np.arange(qp.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
         return qp, first + within
 
-    def lookup(self, z: ArrayLike) -> NDArray[np.int64]:
-        """Index of the stored tile with centre ``z`` (to 0.3 hyperbolically) for each point,
-        or -1 (vectorised)."""
-        z = np.atleast_1d(np.asarray(z, dtype=np.complex128))
-        out = np.full(z.shape, -1, dtype=np.int64)
-        if z.size == 0 or len(self) == 0:
+    def _lookup(
+        self, hi: NDArray[np.complex128], lo: NDArray[np.complex128], q: NDArray[np.float64]
+    ) -> NDArray[np.int64]:
+        out = np.full(hi.shape, -1, dtype=np.int64)
+        if hi.size == 0 or len(self) == 0:
             return out
-        qpt, qkey = self._query_keys(z)
+        qpt, qkey = self._query_keys(hi, q)
         qp, pos = self._pairs(self._keys_sorted, qpt, qkey)
         cand = self._key_owner[pos]
-        ok = self._close(self._centers[cand], z[qp])
+        ok = self._close(self._hi[cand], self._lo[cand], self._q[cand], hi[qp], lo[qp])
         qp, cand = qp[ok], cand[ok]
         # several candidates (only possible for numerically dubious input): take the smallest
         o = np.lexsort((cand, qp))
@@ -382,17 +535,34 @@ class TileSet:
         out[qp[first]] = cand[first]
         return out
 
+    def lookup(self, z: ArrayLike) -> NDArray[np.int64]:
+        """Index of the stored tile with centre ``z`` (to 0.3 hyperbolically) for each point,
+        or -1 (vectorised)."""
+        _, hi, lo, q = self._prep(z)
+        return self._lookup(hi, lo, q)
+
     def find(self, z: complex) -> int:
         """Index of the stored tile whose centre is ``z`` (to 0.3 hyperbolically), or -1."""
         return int(self.lookup(np.array([z]))[0])
 
-    def _append(self, M: NDArray, sigma: NDArray, z: NDArray) -> NDArray[np.int64]:
+    def _append(
+        self,
+        M: NDArray,
+        sigma: NDArray,
+        z: NDArray[np.clongdouble],
+        hi: NDArray[np.complex128],
+        lo: NDArray[np.complex128],
+        q: NDArray[np.float64],
+    ) -> NDArray[np.int64]:
         n0 = len(self)
         idx = n0 + np.arange(z.size, dtype=np.int64)
-        self._M = np.concatenate([self._M, np.asarray(M, np.complex128).reshape(-1, 2, 2)])
+        self._M = np.concatenate([self._M, np.asarray(M, np.clongdouble).reshape(-1, 2, 2)])
         self._sigma = np.concatenate([self._sigma, np.asarray(sigma, bool).reshape(-1)])
         self._centers = np.concatenate([self._centers, z])
-        keys = np.concatenate([self._keys_sorted, self._own_keys(z)])
+        self._hi = np.concatenate([self._hi, hi])
+        self._lo = np.concatenate([self._lo, lo])
+        self._q = np.concatenate([self._q, q])
+        keys = np.concatenate([self._keys_sorted, self._own_keys(hi, q)])
         owner = np.concatenate([self._key_owner, idx])
         o = np.argsort(keys, kind="stable")
         self._keys_sorted, self._key_owner = keys[o], owner[o]
@@ -400,37 +570,39 @@ class TileSet:
 
     def add(self, M: NDArray[np.complex128], sigma: bool, z: complex) -> int:
         """Store a new tile (no duplicate check; use :meth:`find` first) and return its index."""
-        return int(self._append(M[None], np.array([sigma]), np.array([z], np.complex128))[0])
+        zz, hi, lo, q = self._prep(np.array([z]))
+        return int(self._append(M[None], np.array([sigma]), zz, hi, lo, q)[0])
 
     def add_batch(
-        self, M: NDArray[np.complex128], sigma: NDArray[np.bool_], z: NDArray[np.complex128]
+        self, M: NDArray, sigma: NDArray[np.bool_], z: ArrayLike
     ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """Insert a batch of tiles with centres ``z``, skipping the ones already stored and the
         repeats within the batch (the first occurrence wins, as in a sequential loop).
 
         Returns ``(index, new)``: the tile index of every batch entry and whether it was added.
         """
-        z = np.atleast_1d(np.asarray(z, dtype=np.complex128))
+        z, hi, lo, q = self._prep(z)
         k = z.size
-        index = self.lookup(z)
+        index = self._lookup(hi, lo, q)
         todo = np.flatnonzero(index < 0)
         new = np.zeros(k, dtype=bool)
         if todo.size == 0:
             return index, new
-        zt = z[todo]
+        ht, lt, qt = hi[todo], lo[todo], q[todo]
         # dedup within the batch: representative = smallest batch position among equals
-        own = self._own_keys(zt)
+        own = self._own_keys(ht, qt)
         o = np.argsort(own, kind="stable")
-        qpt, qkey = self._query_keys(zt)
+        qpt, qkey = self._query_keys(ht, qt)
         qp, pos = self._pairs(own[o], qpt, qkey)
         other = o[pos]
-        ok = (other < qp) & self._close(zt[other], zt[qp])
+        ok = (other < qp) & self._close(ht[other], lt[other], qt[other], ht[qp], lt[qp])
         rep = np.arange(todo.size)
         np.minimum.at(rep, qp[ok], other[ok])
         rep = rep[rep]  # near-identical duplicates: one hop reaches the first occurrence
         is_first = rep == np.arange(todo.size)
         firsts = np.flatnonzero(is_first)
-        ids = self._append(M[todo[firsts]], sigma[todo[firsts]], zt[firsts])
+        sel = todo[firsts]
+        ids = self._append(M[sel], sigma[sel], z[sel], hi[sel], lo[sel], q[sel])
         slot = np.full(todo.size, -1, dtype=np.int64)
         slot[firsts] = ids
         index[todo] = slot[rep]
@@ -460,7 +632,7 @@ def _reflect_across_edges(
     nbr = np.full((len(g), 5), -1, dtype=np.int64)
     if rows.size == 0:
         return nbr, np.zeros(0, dtype=np.int64)
-    t, is_new = _add_tiles(ts, g[rows] @ REFLECTIONS[ks])
+    t, is_new = _add_tiles(ts, Isometry(*_times_reflections(g.M[rows], g.sigma[rows], ks)))
     nbr[rows, ks] = t
     return nbr, t[is_new]
 
@@ -548,7 +720,7 @@ def generate_tiles(
 def brute_force_i5_arcs(tiles: Isometry) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """All distinct I5 arcs (both sides of every distinct edge geodesic) of a tile set."""
     s, ell = tile_edge_far_arcs(tiles)
-    s, ell = s.ravel(), ell.ravel()
+    s, ell = s.ravel().astype(float), ell.ravel().astype(float)
     key = np.round(np.stack([s, np.mod(s + ell, TWO_PI)], axis=1) * 1e10)
     key.sort(axis=1)
     _, first = np.unique(key, axis=0, return_index=True)
@@ -560,7 +732,7 @@ def brute_force_i5_arcs(tiles: Isometry) -> tuple[NDArray[np.float64], NDArray[n
 def _min_arc_through_radius(r: NDArray[np.float64]) -> NDArray[np.float64]:
     """Shortest arc of a geodesic passing through a point of modulus ``r``: 2θ with
     ``tan(π/4 − θ/2) = r``."""
-    return 2.0 * (math.pi / 2.0 - 2.0 * np.arctan(r))
+    return 2 * (PI_LD / 2 - 2 * np.arctan(r))
 
 
 def _group11_geodesics() -> tuple[
@@ -572,12 +744,13 @@ def _group11_geodesics() -> tuple[
     the far arc of ``(GROUP11[tile], edge)`` starts and ends (counter-clockwise).  The opposite
     arc is the far arc of the same edge of the tile ``GROUP11[tile]∘σ_edge``.
     """
-    a = GROUP11.apply_rows(EDGE_FAR_START)
-    b = GROUP11.apply_rows(EDGE_FAR_END)
+    a = GROUP11.apply_rows(EDGE_FAR_START_LD)
+    b = GROUP11.apply_rows(EDGE_FAR_END_LD)
     rev = GROUP11.sigma[:, None]
     first = np.where(rev, b, a).ravel()
     last = np.where(rev, a, b).ravel()
-    key = np.round(np.sort(np.stack([_angle(first), _angle(last)], axis=1), axis=1) * 1e9)
+    ends = np.stack([_angle(first), _angle(last)], axis=1).astype(float)
+    key = np.round(np.sort(ends, axis=1) * 1e9)
     _, idx = np.unique(key, axis=0, return_index=True)
     idx = np.sort(idx)
     return first[idx], last[idx], idx // 5, idx % 5
@@ -603,20 +776,23 @@ def minimal_containing_arc(
     exceeds the best arc found, so the cost is O(log(1/best/|J|)) tiles per arc, independent
     of |J|.
 
-    Returns ``(start, length, tile, edge)``: the minimal arcs and the tile/edge carrying their
-    geodesic on the tile's far side.  Raises :class:`DiskConstructionError` if no I5 arc
-    shorter than π contains J.
+    Returns ``(start, length, tile, edge)``: the minimal arcs (longdouble if the input arcs
+    are, else rounded to float64) and the tile (clongdouble isometries) / edge carrying their
+    geodesic on the tile's far side.  The search runs in extended precision throughout.
+    Raises :class:`DiskConstructionError` if no I5 arc shorter than π contains J.
     """
-    s = np.atleast_1d(np.asarray(start, float))
-    ell = np.atleast_1d(np.asarray(length, float))
+    ld_in = np.asarray(start).dtype == np.longdouble or np.asarray(length).dtype == np.longdouble
+    s = np.atleast_1d(np.asarray(start)).astype(_LD)
+    ell = np.atleast_1d(np.asarray(length)).astype(_LD)
     n = s.size
-    top = top_point(s, ell)
-    dtop = 2.0 * np.arctanh(np.abs(top))
-    u = np.exp(1j * (s + ell / 2.0))
+    t_ = np.tan(ell / 4)  # 1 − |top| = 2t/(1+t): the distance of the top point keeps accuracy
+    q_ = 2 * t_ / (1 + t_)
+    dtop = np.log((2 - q_) / q_)
+    u = np.exp(1j * (s + ell / 2))
     ng = _G11_START.size
-    best_s = np.full(n, np.nan)
-    best_l = np.full(n, np.inf)
-    best_M = np.zeros((n, 2, 2), np.complex128)
+    best_s = np.full(n, np.nan, dtype=_LD)
+    best_l = np.full(n, np.inf, dtype=_LD)
+    best_M = np.zeros((n, 2, 2), np.clongdouble)
     best_sig = np.zeros(n, bool)
     best_c = np.zeros(n, np.int64)  # candidate index: geodesic * 2 + (1 for the opposite arc)
     todo = np.arange(n)
@@ -631,9 +807,9 @@ def minimal_containing_arc(
         rev = g.sigma[:, None]
         fa = _angle(np.where(rev, b, a))  # far arc of the group tile's edge: fa -> fb
         fb = _angle(np.where(rev, a, b))
-        far_l = np.mod(fb - fa, TWO_PI)
+        far_l = np.mod(fb - fa, TWO_PI_LD)
         cs = np.stack([fa, fb], axis=2).reshape(len(g), -1)  # (P, 2·ng): far arc, opposite
-        cl = np.stack([far_l, TWO_PI - far_l], axis=2).reshape(len(g), -1)
+        cl = np.stack([far_l, TWO_PI_LD - far_l], axis=2).reshape(len(g), -1)
         owner = np.repeat(todo, ts.size)
         ok = arc_contains_arc(cs, cl, s[owner, None], ell[owner, None]) & (cl < math.pi)
         score = np.where(ok, cl, np.inf).reshape(todo.size, -1)
@@ -651,7 +827,7 @@ def minimal_containing_arc(
             best_sig[w] = g.sigma[sample]
             best_c[w] = cand
         # stop where even the shortest geodesic through the next sample is no better
-        nxt = np.tanh(np.clip(dtop[todo] - (t0 + chunk), 0.0, None) / 2.0)
+        nxt = np.tanh(np.clip(dtop[todo] - (t0 + chunk), 0.0, None) / 2)
         done = (_min_arc_through_radius(nxt) >= best_l[todo]) | (dtop[todo] - t0 - chunk <= 0)
         todo = todo[~done]
         t0 += chunk
@@ -672,4 +848,6 @@ def minimal_containing_arc(
         M[o] = flipped.M
         sig[o] = flipped.sigma
         tile = Isometry(M, sig)
+    if not ld_in:
+        best_s, best_l = best_s.astype(float), best_l.astype(float)
     return best_s, best_l, tile, k

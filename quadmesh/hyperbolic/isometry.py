@@ -10,6 +10,12 @@ thousands of isometries at once with :meth:`Isometry.apply_rows`.
 Composition: ``(M1,σ1)∘(M2,σ2) = (M1·(σ1 ? conj(M2) : M2), σ1 xor σ2)``;
 inverse: ``(σ ? conj(M⁻¹) : M⁻¹, σ)``.  Matrices are kept normalised to determinant 1 so that
 long products (deep tessellation tiles) neither overflow nor underflow.
+
+Precision: everything is complex128 unless a matrix is given as ``clongdouble`` (80-bit extended
+precision on x86-64, eps 1.1e-19); then the maps, their compositions and their images of points
+stay ``clongdouble``.  The disk construction stores deep tessellation tiles that way (their
+entries grow like ``s^{-1/2}`` for tiles of Euclidean size ``s``, so float64 products lose
+``log10(1/s)`` digits of the tile positions; see ``quadmesh.disk.tessellation``).
 """
 
 from __future__ import annotations
@@ -20,6 +26,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 ComplexArray = NDArray[np.complex128]
+
+
+def _cdtype(*arrays: ArrayLike) -> type:
+    """``clongdouble`` if any input is extended precision, else ``complex128``."""
+    for a in arrays:
+        if np.asarray(a).dtype in (np.longdouble, np.clongdouble):
+            return np.clongdouble
+    return np.complex128
+
 
 __all__ = [
     "CAYLEY_D_TO_H",
@@ -40,7 +55,7 @@ __all__ = [
 
 def normalize_matrix(M: ArrayLike) -> ComplexArray:
     """Scale a (stack of) 2×2 complex matrix to determinant 1 (same Möbius map)."""
-    M = np.asarray(M, dtype=np.complex128)
+    M = np.asarray(M, dtype=_cdtype(M))
     det = M[..., 0, 0] * M[..., 1, 1] - M[..., 0, 1] * M[..., 1, 0]
     if np.any(det == 0) or not np.all(np.isfinite(det)):
         raise ValueError("singular or non-finite Möbius matrix")
@@ -52,8 +67,9 @@ def mobius_apply(M: ArrayLike, z: ArrayLike) -> ComplexArray:
 
     ``z = inf`` is mapped to ``a/c``; a pole gives ``inf``.
     """
-    M = np.asarray(M, dtype=np.complex128)
-    z = np.asarray(z, dtype=np.complex128)
+    dt = _cdtype(M, z)
+    M = np.asarray(M, dtype=dt)
+    z = np.asarray(z, dtype=dt)
     a, b, c, d = M[0, 0], M[0, 1], M[1, 0], M[1, 1]
     with np.errstate(divide="ignore", invalid="ignore"):
         out = (a * z + b) / (c * z + d)
@@ -62,7 +78,7 @@ def mobius_apply(M: ArrayLike, z: ArrayLike) -> ComplexArray:
             out = np.where(inf, a / c if c != 0 else np.inf, out)
         pole = (c * z + d) == 0
         if np.any(pole):
-            out = np.where(pole & ~inf, np.complex128(np.inf), out)
+            out = np.where(pole & ~inf, dt(np.inf), out)
     return out
 
 
@@ -78,7 +94,8 @@ class Isometry:
     """Isometry / Möbius pair ``z ↦ M·(conj z if sigma else z)``, single or stacked (DISK.md §0).
 
     Attributes:
-        M: complex array of shape ``(2, 2)`` (single) or ``(k, 2, 2)`` (stack).
+        M: complex array of shape ``(2, 2)`` (single) or ``(k, 2, 2)`` (stack); complex128, or
+            clongdouble if given in extended precision.
         sigma: bool array of shape ``()`` or ``(k,)``; True means the map reverses orientation.
     """
 
@@ -86,7 +103,7 @@ class Isometry:
     sigma: NDArray[np.bool_]
 
     def __post_init__(self) -> None:
-        M = np.asarray(self.M, dtype=np.complex128)
+        M = np.asarray(self.M, dtype=_cdtype(self.M))
         if M.shape[-2:] != (2, 2):
             raise ValueError(f"Isometry matrix must have shape (...,2,2), got {M.shape}")
         sigma = np.broadcast_to(np.asarray(self.sigma, dtype=bool), M.shape[:-2]).copy()
@@ -95,11 +112,12 @@ class Isometry:
 
     # ----------------------------------------------------------------- constructors
     @staticmethod
-    def identity(k: int | None = None) -> Isometry:
-        """The identity (one pair if ``k`` is None, else a stack of ``k`` identities)."""
+    def identity(k: int | None = None, dtype: type = np.complex128) -> Isometry:
+        """The identity (one pair if ``k`` is None, else a stack of ``k`` identities), with
+        matrices of ``dtype`` (complex128 or clongdouble)."""
         if k is None:
-            return Isometry(np.eye(2, dtype=np.complex128), np.False_)
-        return Isometry(np.tile(np.eye(2, dtype=np.complex128), (k, 1, 1)), np.zeros(k, bool))
+            return Isometry(np.eye(2, dtype=dtype), np.False_)
+        return Isometry(np.tile(np.eye(2, dtype=dtype), (k, 1, 1)), np.zeros(k, bool))
 
     @staticmethod
     def stack(isometries: list[Isometry]) -> Isometry:
@@ -153,7 +171,7 @@ class Isometry:
         """Apply a *single* pair to points ``z`` of any shape."""
         if self.is_stack:
             raise TypeError("use apply_rows() to apply a stack of isometries")
-        z = np.asarray(z, dtype=np.complex128)
+        z = np.asarray(z, dtype=_cdtype(self.M, z))
         return mobius_apply(self.M, np.conj(z) if bool(self.sigma) else z)
 
     def apply_rows(self, z: ArrayLike) -> ComplexArray:
@@ -161,7 +179,6 @@ class Isometry:
         points) or ``(k, p)`` → ``(k, p)`` (row ``i`` mapped by isometry ``i``).
         A single pair accepts ``(p,)`` and returns ``(p,)``.
         """
-        z = np.asarray(z, dtype=np.complex128)
         if not self.is_stack:
             return self(z)
         return apply_isometries(self.M, self.sigma, z)
@@ -175,11 +192,13 @@ def apply_isometries(M: ArrayLike, sigma: ArrayLike, z: ArrayLike) -> ComplexArr
     """Apply stacked pairs ``(M[i], sigma[i])`` (``M`` of shape ``(k,2,2)``) to points.
 
     ``z`` of shape ``(p,)`` is mapped by every isometry (result ``(k, p)``); ``z`` of shape
-    ``(k, p)`` is mapped row by row.  Vectorised; no Python loop.
+    ``(k, p)`` is mapped row by row.  Vectorised; no Python loop.  The result is clongdouble if
+    ``M`` or ``z`` is extended precision, else complex128.
     """
-    M = np.asarray(M, dtype=np.complex128)
+    dt = _cdtype(M, z)
+    M = np.asarray(M, dtype=dt)
     sigma = np.asarray(sigma, dtype=bool)
-    z = np.asarray(z, dtype=np.complex128)
+    z = np.asarray(z, dtype=dt)
     if z.ndim == 1:
         z = np.broadcast_to(z, (M.shape[0], z.shape[0]))
     w = np.where(sigma[:, None], np.conj(z), z)
@@ -203,16 +222,19 @@ def disk_automorphism_inverse(a: complex, lam: complex = 1.0) -> Isometry:
 
 
 def phi(a: ArrayLike, z: ArrayLike) -> ComplexArray:
-    """Vectorised ``φ_a(z) = (z−a)/(1−ā z)`` (``a`` and ``z`` broadcast)."""
-    a = np.asarray(a, dtype=np.complex128)
-    z = np.asarray(z, dtype=np.complex128)
+    """Vectorised ``φ_a(z) = (z−a)/(1−ā z)`` (``a`` and ``z`` broadcast; clongdouble in, out)."""
+    dt = _cdtype(a, z)
+    a = np.asarray(a, dtype=dt)
+    z = np.asarray(z, dtype=dt)
     return (z - a) / (1.0 - np.conj(a) * z)
 
 
 def phi_inv(a: ArrayLike, w: ArrayLike) -> ComplexArray:
-    """Vectorised ``φ_a⁻¹(w) = (w + a)/(1 + ā w)`` (``a`` and ``w`` broadcast)."""
-    a = np.asarray(a, dtype=np.complex128)
-    w = np.asarray(w, dtype=np.complex128)
+    """Vectorised ``φ_a⁻¹(w) = (w + a)/(1 + ā w)`` (``a`` and ``w`` broadcast; clongdouble in,
+    out)."""
+    dt = _cdtype(a, w)
+    a = np.asarray(a, dtype=dt)
+    w = np.asarray(w, dtype=dt)
     return (w + a) / (1.0 + np.conj(a) * w)
 
 
