@@ -901,10 +901,13 @@ def render_png(
         if view == "plane":
             z = _complex_vertices(result.polygon)
             pad = 0.04 * max(np.ptp(z.real), np.ptp(z.imag))
+            # the colour bar of the final mesh sits along the bottom edge: leave it room
+            bar = 0.13 * max(np.ptp(z.imag), np.ptp(z.real) * size[1] / size[0])
+            bottom = pad + (bar if "final_mesh" in layers else 0.0)
             bounds = (
                 z.real.min() - pad,
                 z.real.max() + pad,
-                z.imag.min() - pad,
+                z.imag.min() - bottom,
                 z.imag.max() + pad,
             )
         _setup_2d(pl, view, size, bounds)
