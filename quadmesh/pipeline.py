@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -229,11 +229,13 @@ def _project_to_sides(
 
     A point e^{it} of the circle between prevertices θ_k and θ_{k+1} maps to side
     [w_k, w_{k+1}]; the computed value carries quadrature error, so it is replaced by its
-    orthogonal projection onto that segment.
+    orthogonal projection onto that segment. ``t`` and ``theta`` may be long double (the
+    side of a circle vertex next to a crowded prevertex is then decided at ~1e-19).
     """
     order = np.argsort(theta)
     ts = theta[order]
-    pos = np.searchsorted(ts, np.mod(t, 2 * np.pi), side="right") - 1
+    two_pi = 2 * np.pi if ts.dtype != np.longdouble else 2 * np.longdouble(np.pi)
+    pos = np.searchsorted(ts, np.mod(t, two_pi), side="right") - 1
     k = order[np.mod(pos, theta.size)]
     a = zpoly[k]
     b = zpoly[(k + 1) % zpoly.size]
@@ -249,46 +251,94 @@ def _push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarra
     §1.10), circle vertices projected onto their side, and inside each inner triangle T_i
     the linear map h(ζ) = g(c) + (ζ − c)·g'(c) with g = f∘τ⁻¹ (a similarity, so the model
     angles of the T_i quads survive exactly).
+
+    Every evaluation uses exact offsets (the disk mesh's extended-precision frames,
+    :meth:`~quadmesh.disk.DiskMesh.offsets_from`), not the complex128 vertices: cells of
+    1e-15 next to prevertex gaps of 1e-13 (crowded pieces) keep their shape; circle vertices
+    find their side from their long double angle, the triangle centres τ⁻¹(c) come in long
+    double from the apex frames.
     """
-    zd = disk.vertices
     image = _evaluate_map(fmap, disk)
-    circ = np.asarray(disk.on_circle, dtype=bool)
-    if np.any(circ):
-        image[circ] = _project_to_sides(image[circ], np.angle(zd[circ]), theta, zpoly)
+    circ = np.flatnonzero(np.asarray(disk.on_circle, dtype=bool))
+    if circ.size:
+        ang = np.angle(disk.exact_vertices()[circ])
+        th = getattr(fmap, "theta_ld", None)
+        if th is None:  # a rotated map (gaps ≥ ROTATION_MIN_GAP): float64 angles suffice
+            th, ang = theta, ang.astype(float)
+        image[circ] = _project_to_sides(image[circ], ang, th, zpoly)
     tris = disk.triangles
     if len(tris):
         idx = np.concatenate([np.asarray(t.inner_vertices) for t in tris])
         zeta = np.concatenate([np.asarray(t.inner_model) for t in tris])
         tid = np.repeat(np.arange(len(tris)), [len(t.inner_vertices) for t in tris])
-        zc, dzc = _triangle_centres(tris)
-        gc = fmap(zc)
-        dgc = fmap.derivative(zc) * dzc
+        apex, off, dzc = _triangle_centres(tris)
+        gc, fpc = _evaluate_map(fmap, frames=apex, offsets=off)
+        dgc = fpc * dzc
         c0 = np.array([t.center for t in tris], dtype=complex)
         image[idx] = gc[tid] + (zeta - c0[tid]) * dgc[tid]
     return image
 
 
-def _triangle_centres(tris) -> tuple[np.ndarray, np.ndarray]:
+def _triangle_centres(tris) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """τ⁻¹(c) and (τ⁻¹)'(c) for every Carleson triangle, c the model centre of T_i.
 
-    τ⁻¹ = φ_a⁻¹ ∘ τ_local (a = the triangle's frame point) is evaluated in this factored
-    form, which keeps relative accuracy for tiny triangles near the circle.
+    τ⁻¹ = φ_a⁻¹ ∘ τ_local (a = the triangle's apex frame, in long double) is evaluated in this
+    factored form: ``τ⁻¹(c) − a = u(1 − |a|²)/(1 + āu)`` with ``u = τ_local(c)`` and
+    ``1 − |a|²`` from the long double apex, which keeps relative accuracy for tiny triangles
+    near the circle (a centre that neither complex128 nor long double resolves). Returns the
+    apices ``a`` (clongdouble), the offsets ``τ⁻¹(c) − a`` (complex128) and ``(τ⁻¹)'(c)``.
     """
+    from .disk.tessellation import frame_offsets, one_minus_abs2
+
     loc = np.stack([np.asarray(t.tau_local) for t in tris])
-    a = np.array([t.frame for t in tris], dtype=complex)
+    a = np.array([t.frame_ld for t in tris], dtype=np.clongdouble)
     c0 = np.array([t.center for t in tris], dtype=complex)
     p, q, r, s = loc[:, 0, 0], loc[:, 0, 1], loc[:, 1, 0], loc[:, 1, 1]
     u = (p * c0 + q) / (r * c0 + s)
     du = (p * s - q * r) / (r * c0 + s) ** 2
-    zc = (u + a) / (1.0 + np.conj(a) * u)
-    dphi = (1.0 - np.abs(a) ** 2) / (1.0 + np.conj(a) * u) ** 2
-    return zc, dphi * du
+    off = frame_offsets(a, u)
+    a64 = a.astype(np.complex128)
+    dphi = one_minus_abs2(a) / (1.0 + np.conj(a64) * u) ** 2
+    return a, off, dphi * du
 
 
-def _evaluate_map(fmap, disk) -> np.ndarray:
-    """f at all disk-mesh vertices, grouped by piece for the power-series evaluator."""
-    zd = disk.vertices
-    return np.asarray(fmap.map_clusters(zd, disk.vertex_piece, disk.piece_center))
+def _evaluate_map(fmap, disk=None, *, frames=None, offsets=None):
+    """f at all disk-mesh vertices (``disk``), grouped by piece for the power-series
+    evaluator, with the exact offsets of the disk mesh (``DiskMesh.offsets_from``); or
+    ``(f, f')`` at the points ``frames + offsets`` (long double frame points, complex128
+    offsets with full relative accuracy; grouped in cells as by ``DiskMap.__call__``).
+
+    A map rotated by :func:`_best_rotation` is evaluated through its base map, with the
+    points and offsets rotated back (``f_ψ(z) = f(z/r)``, ``r = e^{iψ}``)."""
+    rotated = isinstance(fmap, _RotatedMap)
+    base = fmap.base if rotated else fmap
+    r = fmap._r if rotated else 1.0
+    r_ld = np.clongdouble(r)
+    if frames is not None:
+        fr = np.asarray(frames, dtype=np.clongdouble).ravel()
+        of = np.asarray(offsets, dtype=np.complex128).ravel()
+
+        def point_offsets(refs: np.ndarray, index: np.ndarray) -> np.ndarray:
+            return ((fr[index] - refs * r_ld).astype(np.complex128) + of[index]) / r
+
+        approx = (fr.astype(np.complex128) + of) / r
+        f, fp = base.map_clusters(approx, None, None, derivative=True, offsets=point_offsets)
+        return f, fp / r
+    if rotated:
+
+        def vertex_offsets(refs: np.ndarray, index: np.ndarray) -> np.ndarray:
+            return disk.offsets_from(refs * r_ld, index) / r
+
+    else:
+        vertex_offsets = disk.offsets_from
+    return np.asarray(
+        base.map_clusters(
+            disk.vertices / r,
+            disk.vertex_piece,
+            disk.piece_center_ld / r_ld,
+            offsets=vertex_offsets,
+        )
+    )
 
 
 def _check_cancel(cancel: CancelCallback | None, stage: str) -> None:
@@ -308,6 +358,7 @@ class _Piece:
     owners: list[tuple[str, int]]
     stretches: list
     repair: object = None
+    lemma_A: float | None = None  # set when the piece fell back to FALLBACK_A
 
 
 def _prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> _Piece:
@@ -491,18 +542,42 @@ def _disk_and_image(
     from .disk import disk_mesh
 
     t0 = time.perf_counter()
-    try:
-        disk = disk_mesh(
-            pd.intervals,
-            A=options.lemma_A,
+
+    def build(intervals: np.ndarray, A: float):
+        return disk_mesh(
+            intervals,
+            A=A,
             n=n,
             depth_step=step,
             inner_height=options.inner_height,
             depth_growth=options.depth_growth,
             depth_max=None if dmax is None else max(dmax, _d5(options.inner_height) + 0.5),
         )
+
+    try:
+        disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
     except DiskConstructionError as exc:
-        raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
+        # Lemma 2.2's chains of neighbouring arcs can interlock when A is small (a
+        # scale-free ~3/40 of random arc sets at A = 4): this piece falls back to the
+        # paper-sized A = 16 with arcs of 1/16 of the neighbouring gap (same cores, same
+        # crosscut vertex counts, so the channels still match)
+        if pd.lemma_A is not None or options.lemma_A >= FALLBACK_A:
+            raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
+        fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
+        try:
+            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback)
+            disk = build(intervals, FALLBACK_A)
+        except DiskConstructionError as exc2:
+            raise DiskConstructionError(
+                f"thick piece {pd.index}: {exc.args[0]} (and with A = {FALLBACK_A:g}: "
+                f"{exc2.args[0]})"
+            ) from exc2
+        if owners != pd.owners:
+            raise DiskConstructionError(
+                f"thick piece {pd.index}: {exc.args[0]} (the A = {FALLBACK_A:g} fallback "
+                "changed the arcs' owners)"
+            ) from exc
+        pd.intervals, pd.lemma_A = intervals, FALLBACK_A
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
@@ -520,6 +595,38 @@ def _disk_and_image(
     return disk, image
 
 
+#: A (and crosscut ratio) of the per-piece fallback when Lemma 2.2's arcs interlock.
+FALLBACK_A = 16.0
+
+#: Pushed-forward angles this far outside [60°, 120°] are not the O(1/n) distortion that the
+#: adaptive loop cures but numerical breakdown (inverted or collapsed quads).
+DEGENERATE_ANGLES = (20.0, 200.0)
+#: Prevertex gap (radians) below which such a breakdown is attributed to crowding.
+CROWDED_GAP = 1e-10
+
+
+def _refuse_degenerate(pd: _Piece, ang: np.ndarray) -> None:
+    """Raise at once when a crowded piece's pushed-forward mesh is numerically degenerate.
+
+    Raising n or lowering the depth step makes such a mesh larger, never valid (glyph_s took
+    37 s to fail that way), so the loop is not entered.
+    """
+    lo, hi = DEGENERATE_ANGLES
+    if not np.any((ang < lo) | (ang > hi)):
+        return
+    th = np.sort(np.mod(np.asarray(pd.theta, dtype=float), 2 * np.pi))
+    gap = float(np.min(np.diff(np.r_[th, th[0] + 2 * np.pi])))
+    if gap >= CROWDED_GAP:
+        return
+    raise DiskConstructionError(
+        f"thick piece {pd.index}: its prevertices crowd to gaps of {gap:.2g} rad and the "
+        f"pushed-forward disk mesh is numerically degenerate there (angles "
+        f"[{float(ang.min()):.1f}°, {float(ang.max()):.1f}°]): double precision cannot resolve "
+        "the map of this piece (typically a long curved corridor whose walls are chains of "
+        "short edges); a larger n cannot help"
+    )
+
+
 def _angle_tol(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """(Q,) slack (degrees) on the angle bounds per quad: ANGLE_TOL plus what float64 storage
     of the vertices can put on the angles of that quad (as the final verifier allows)."""
@@ -529,11 +636,16 @@ def _angle_tol(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 
 def _repair_note(pd: _Piece) -> tuple[str, ...]:
-    """The fix note of a piece whose pushed-forward mesh was repaired, for ThickPieceResult."""
+    """Fix notes of a piece (A fallback, local repair of its pushed-forward mesh) for
+    ThickPieceResult.fixes."""
+    notes: tuple[str, ...] = ()
+    if pd.lemma_A is not None:
+        notes = (f"Lemma 2.2 arcs interlocked at the default A: A = {pd.lemma_A:g} used",)
     rep = pd.repair
     if rep is None or rep.moved.size == 0:
-        return ()
+        return notes
     return (
+        *notes,
         f"angles [{rep.before[0]:.2f}, {rep.before[1]:.2f}] repaired locally: "
         f"{rep.moved.size} interior vertices moved by at most {100 * rep.max_shift:.2g}% of "
         f"their shortest edge, now [{rep.after[0]:.2f}, {rep.after[1]:.2f}]",
@@ -723,6 +835,7 @@ def mesh_polygon(
                 ang = quad_angles_deg(image, disk.quads)
                 tol = _angle_tol(image, disk.quads)[:, None]
                 out = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
+                _refuse_degenerate(pd, ang)
                 for kind in np.unique(disk.kind[out.any(axis=1)]):
                     sel = ang[disk.kind == kind]
                     lo, hi = float(sel.min()), float(sel.max())

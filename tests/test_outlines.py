@@ -125,3 +125,26 @@ def test_traced_contours_mesh(family):
     assert r.verification.ok
     assert r.quality.n_angles_outside == 0
     assert r.quality.n_quads / len(poly) < 1500
+
+
+def _pen_arc(degrees: float, width: float = 0.8) -> np.ndarray:
+    """A thick pen stroke along a circular arc of radius 3 (a C-like glyph)."""
+    import shapely
+
+    a = np.radians(np.linspace(0, degrees, 60))
+    line = shapely.LineString(np.column_stack([3 * np.cos(a), 3 * np.sin(a)]))
+    g = line.buffer(width / 2, quad_segs=8).simplify(0.02 * width)
+    return np.asarray(g.exterior.coords)[:-1]  # clockwise: mesh_polygon reverses it
+
+
+def test_curved_pen_stroke_meshes():
+    """A 270° pen stroke: a curved corridor ~12 widths long whose walls are chains of short
+    edges. Its prevertices crowd to ~1e-13 rad (extended-precision disk construction and
+    exact-offset push-forward), and Lemma 2.2's arcs interlock at the default A = 4, so
+    the piece falls back to A = 16."""
+    poly = _pen_arc(270.0)
+    r = mesh_polygon(poly)
+    assert r.verification.ok
+    assert r.quality.n_angles_outside == 0
+    assert r.quality.n_quads / len(poly) < 1500
+    assert any("A = 16 used" in f for p in r.pieces for f in p.fixes)

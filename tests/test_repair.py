@@ -87,3 +87,21 @@ def test_l_shape_keeps_n2_with_repair_and_needs_n3_without():
     assert max(p.n_used for p in r0.pieces) >= 3
     # n = 2 costs fewer quads than the paper's remedy (raise n)
     assert len(r.mesh.quads) < 0.8 * len(r0.mesh.quads)
+
+
+def test_degenerate_crowded_piece_is_refused_at_once():
+    """Numerically degenerate pushed-forward quads (inverted, collapsed) in a crowded piece
+    raise at once instead of entering the adaptive loop; a non-crowded piece is left to it."""
+    from types import SimpleNamespace
+
+    from quadmesh.errors import DiskConstructionError
+    from quadmesh.pipeline import _refuse_degenerate
+
+    bad = np.array([[90.0, 90.0, 90.0, 90.0], [5.0, 175.0, 90.0, 90.0]])
+    good = np.array([[90.0, 90.0, 90.0, 90.0], [58.0, 122.0, 90.0, 90.0]])
+    crowded = SimpleNamespace(index=3, theta=np.array([0.0, 1e-13, 2.0, 4.0]))
+    spread = SimpleNamespace(index=1, theta=np.array([0.0, 1.0, 2.0, 4.0]))
+    with pytest.raises(DiskConstructionError, match="crowd"):
+        _refuse_degenerate(crowded, bad)
+    _refuse_degenerate(crowded, good)  # ordinary distortion: the loop's business
+    _refuse_degenerate(spread, bad)  # not crowded: the loop's business

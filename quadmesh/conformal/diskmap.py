@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -40,10 +41,22 @@ from .quadrature import (
 )
 from .series import exp_series, horner, log_coefficients, log_expansions, match_rows, unique_rows
 
-__all__ = ["ConformalAccuracy", "DiskMap", "TaylorSeries"]
+__all__ = ["CROWD_RADIUS", "ConformalAccuracy", "DiskMap", "OffsetFunction", "TaylorSeries"]
 
 _SERIES_EPS = 1e-17
 _CHUNK = 262_144
+#: Series centres closer than this to a prevertex get their coefficients and values in local
+#: coordinates (differences from the gaps, values from the nearest prevertex): the far-field
+#: tree and the anchor chains work with float64 prevertices, whose ~1e-16 absolute error is a
+#: relative error of 1e-16/R in the terms of the nearest prevertices (CONFORMAL.md §1.8).
+CROWD_RADIUS = 1e-8
+
+#: Distance to the nearest prevertex below which offsets from it are formed in long double.
+_EXACT_NEAR = 1e-6
+
+OffsetFunction = Callable[[np.ndarray, np.ndarray], np.ndarray]
+"""``off(refs, index) -> points[index] − refs`` (complex128, accurate relative to the result)
+for reference points ``refs`` in long double, broadcast against ``index``."""
 
 
 @dataclass(frozen=True)
@@ -391,9 +404,12 @@ class DiskMap:
 
     Under crowding use ``gaps`` rather than differences of ``theta``/``prevertices`` (which
     carry ~1e-16 absolute error), and :meth:`map_near_vertex` (local offsets from a
-    prevertex) for points near a crowded cluster. Evaluation: ``__call__`` (series based,
-    fast), :meth:`direct` (quadrature), :meth:`derivative` (closed form), :meth:`taylor`,
-    :meth:`map_clusters`, :meth:`inverse`; checks: :meth:`accuracy`.
+    prevertex) for points near a crowded cluster. ``theta_ld``/``prevertices_ld`` are the
+    angles summed from the gaps in long double (≈1e-19 absolute error); points that complex128
+    cannot resolve are evaluated with :meth:`map_clusters` given exact offsets.
+    Evaluation: ``__call__`` (series based, fast), :meth:`direct` (quadrature),
+    :meth:`derivative` (closed form), :meth:`taylor`, :meth:`map_clusters`, :meth:`inverse`;
+    checks: :meth:`accuracy`.
     """
 
     def __init__(self, prob: _Problem, gaps: np.ndarray, iterations: int, steps: int) -> None:
@@ -412,6 +428,12 @@ class DiskMap:
         self.gaps = cfg.gaps.copy()
         self.theta = cfg.theta.copy()
         self.prevertices = cfg.z.copy()
+        # the prevertex angles summed from the gaps in extended precision (≈1e-19 absolute):
+        # reference points for offsets of points that float64 cannot resolve (map_clusters)
+        self.theta_ld = np.concatenate(
+            [np.zeros(1, np.longdouble), np.cumsum(cfg.gaps[:-1].astype(np.longdouble))]
+        )
+        self.prevertices_ld = np.exp(1j * self.theta_ld)
         r = prob.ref
         self.constant = complex((prob.w[(r + 1) % prob.n] - prob.w[r]) / S[r])
         self._S = S
@@ -585,15 +607,53 @@ class DiskMap:
                 out[i : i + step] = self.constant * np.exp(beta_log_sum(B, self.beta))
         return out.reshape(z.shape)
 
-    def _nearest(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _nearest(
+        self,
+        z: np.ndarray,
+        off: OffsetFunction | None = None,
+        idx: np.ndarray | None = None,
+        ld: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest prevertex ``k`` of every point and ``d = z − z_k``.
+
+        ``z`` (complex128) locates the points. With ``off`` (exact offsets of points that ``z``
+        only rounds, see :meth:`map_clusters`) or ``ld``, ``d`` is taken from the long double
+        prevertices :attr:`prevertices_ld` (``off(refs, idx)``, or ``z − refs`` in long double)
+        with full relative accuracy for points within ``1e-6`` of a prevertex; otherwise from
+        the float64 :attr:`prevertices` (so that ``f(prevertices[k]) = w_k`` exactly). Four
+        candidates around the float64 position are compared, so a rounding of ``z`` or
+        ``theta`` far above a crowded gap cannot pick the wrong prevertex.
+        """
+        z = np.asarray(z, dtype=np.complex128).ravel()
+        n = self.n
+        if z.size == 0:
+            return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.complex128)
         phi = np.mod(np.angle(z), TWO_PI)
-        idx = np.searchsorted(self.theta, phi)
-        k0 = np.maximum(idx - 1, 0)
-        k1 = idx % self.n
-        d0 = z - self.prevertices[k0]
-        d1 = z - self.prevertices[k1]
-        take1 = np.abs(d1) < np.abs(d0)
-        return np.where(take1, k1, k0), np.where(take1, d1, d0)
+        i = np.searchsorted(self.theta, phi)
+        cand = np.mod(i[:, None] + np.arange(-2, 2)[None, :], n)
+        D = z[:, None] - self.prevertices[cand]
+        rows = np.arange(z.size)
+        j = np.argmin(np.abs(D), axis=1)
+        k, d = cand[rows, j], D[rows, j]
+        if off is None and not ld:
+            return k, d
+        # long double offsets where the float64 ones lose digits (further away, the two
+        # differ by ~1e-16 absolute, i.e. < 1e-10 relative)
+        r = np.flatnonzero(np.abs(d) < _EXACT_NEAR)
+        if r.size == 0:
+            return k, d
+        c = cand[r]
+        refs = self.prevertices_ld[c]
+        if off is None:
+            De = (z[r].astype(np.clongdouble)[:, None] - refs).astype(np.complex128)
+        else:
+            ids = np.arange(z.size) if idx is None else np.asarray(idx)
+            De = np.asarray(off(refs, np.broadcast_to(ids[r][:, None], c.shape)))
+            De = De.astype(np.complex128).reshape(c.shape)
+        je = np.argmin(np.abs(De), axis=1)
+        re = np.arange(r.size)
+        k[r], d[r] = c[re, je], De[re, je]
+        return k, d
 
     def direct(self, z: np.ndarray) -> np.ndarray:
         """Forward map by compound Gauss–Jacobi quadrature (§1.6), from the nearest
@@ -685,10 +745,22 @@ class DiskMap:
         flat = np.asarray(z, dtype=np.complex128).ravel()
         return self._evaluate_grouped(flat, None, None, derivative)
 
-    def _evaluate_grouped(self, flat, cid, centers, derivative):
+    @staticmethod
+    def _offsets(
+        flat: np.ndarray, off: OffsetFunction | None, refs: np.ndarray, idx: np.ndarray
+    ) -> np.ndarray:
+        """``flat[idx] − refs`` (refs: complex128 points), exactly when ``off`` is given."""
+        if off is None:
+            return flat[idx] - refs
+        return np.asarray(off(np.asarray(refs).astype(np.clongdouble), idx), dtype=np.complex128)
+
+    def _evaluate_grouped(self, flat, cid, centers, derivative, off=None):
         """Shared evaluator: points in clusters ``cid`` whose centre series covers them (all
         points within ``R/2`` of the centre, ``R`` the distance to the prevertices) use that
-        series; every other point uses a prevertex series or a dyadic cell (§1.10)."""
+        series; every other point uses a prevertex series or a dyadic cell (§1.10).
+
+        ``off`` (see :meth:`map_clusters`) gives the exact offsets of the points from the
+        centres and prevertices; ``flat`` then only locates them."""
         f = np.empty(flat.size, dtype=np.complex128)
         fp = np.empty(flat.size, dtype=np.complex128) if derivative else None
         if flat.size == 0:
@@ -698,11 +770,13 @@ class DiskMap:
             gcen = np.empty(0, complex)
             grho = np.empty(0)
             gid = np.empty(0, np.intp)
+            tg = np.empty(0, complex)
         else:
-            _, d0 = self._nearest(centers)
+            _, d0 = self._nearest(centers, ld=off is not None)
             R = np.abs(d0)
+            t_all = self._offsets(flat, off, centers[cid], np.arange(flat.size))
             rho = np.zeros(centers.size)
-            np.maximum.at(rho, cid, np.abs(flat - centers[cid]))
+            np.maximum.at(rho, cid, np.abs(t_all))
             good = (rho <= 0.5 * R) & (np.abs(centers) <= 1.0)
             used = np.zeros(centers.size, bool)
             used[cid] = True
@@ -713,8 +787,9 @@ class DiskMap:
             gcen = centers[gidx]
             grho = np.maximum(rho[gidx], 1e-300)
             gid = remap[cid[good_pt]]
+            tg = t_all[good_pt]
         rest = np.flatnonzero(~good_pt)
-        k, d = self._nearest(flat[rest])
+        k, d = self._nearest(flat[rest], off, rest)
         vert = np.abs(d) <= 0.5 * self._cfg.nn[k]
         iv = rest[vert]
         if iv.size:
@@ -724,18 +799,95 @@ class DiskMap:
                 fp[iv] = dd
         ic = rest[~vert]
         ccid, ccen, crho = _dyadic_cells(flat[ic], np.abs(d[~vert]), self)
+        tc = self._offsets(flat, off, ccen[ccid], ic)
         pts = np.r_[np.flatnonzero(good_pt), ic]
         allcid = np.r_[gid, ccid + gcen.size]
         ff, dd = self._eval_clusters(
-            flat[pts], allcid, np.r_[gcen, ccen], np.r_[grho, crho], derivative
+            np.r_[tg, tc], allcid, np.r_[gcen, ccen], np.r_[grho, crho], derivative, off is not None
         )
         f[pts] = ff
         if derivative:
             fp[pts] = dd
         return f, fp
 
-    def _eval_clusters(self, z, cid, cen, rho, derivative):
-        """f (and f') at points ``z`` from the Taylor series about their cluster centre.
+    def _eval_clusters(self, t, cid, cen, rho, derivative, ld=False):
+        """f (and f') at the points ``cen[cid] + t`` from the Taylor series about their
+        cluster centre (all points of cluster i within ``rho[i] ≤ R_i/2`` of ``cen[i]``).
+
+        Centres within :data:`CROWD_RADIUS` of a prevertex use :meth:`_eval_clusters_local`
+        (local coordinates, offsets from the long double prevertices if ``ld``), all others
+        :meth:`_eval_clusters_tree`."""
+        out_f = np.empty(t.size, dtype=np.complex128)
+        out_d = np.empty(t.size, dtype=np.complex128) if derivative else None
+        K = cen.size
+        if K == 0:
+            return out_f, out_d
+        kk, s = self._nearest(cen, ld=ld)
+        R = np.abs(s)
+        crowd = (R < CROWD_RADIUS) & (R > 0.0)
+        for sel, local in ((np.flatnonzero(~crowd), False), (np.flatnonzero(crowd), True)):
+            if sel.size == 0:
+                continue
+            remap = np.full(K, -1)
+            remap[sel] = np.arange(sel.size)
+            pts = np.flatnonzero(remap[cid] >= 0)
+            if pts.size == 0:
+                continue
+            if local:
+                ff, dd = self._eval_clusters_local(
+                    t[pts], remap[cid[pts]], kk[sel], s[sel], rho[sel], derivative
+                )
+            else:
+                ff, dd = self._eval_clusters_tree(
+                    t[pts], remap[cid[pts]], cen[sel], rho[sel], derivative
+                )
+            out_f[pts] = ff
+            if derivative:
+                out_d[pts] = dd
+        return out_f, out_d
+
+    def _eval_clusters_local(self, t, cid, kc, s, rho, derivative):
+        """Cluster series about centres ``c = z_kc + s`` next to crowded prevertices, in
+        local coordinates: ``z_j − c = (z_j − z_kc) − s`` with the prevertex differences from
+        the gaps (Configuration.E), coefficients of log f' by direct sums over all prevertices
+        (:func:`~quadmesh.conformal.series.log_coefficients`, O(n·order) per centre), and
+        ``f(c)`` from prevertex ``kc`` (:meth:`map_near_vertex`: prevertex series or compound
+        quadrature in local coordinates). Everything is accurate relative to the distance
+        from the centre to the prevertices, so clusters of 1e-15 next to gaps of 1e-13 keep
+        their shape (§1.9, §1.10)."""
+        K = s.size
+        R = np.abs(s)
+        rho = np.maximum(rho, 0.25 * R)
+        S = 2.0 * rho
+        orders = np.maximum(self._order(rho / R), 32)
+        fc = np.asarray(self.map_near_vertex(kc, s))
+        out_f = np.empty(t.size, dtype=np.complex128)
+        out_d = np.empty(t.size, dtype=np.complex128) if derivative else None
+        zc = self._cfg.zc
+        step = max(1, _CHUNK // self.n)
+        for o in np.unique(orders):
+            sel = np.flatnonzero(orders == o)
+            G = np.empty((sel.size, int(o) + 1), dtype=np.complex128)
+            for i in range(0, sel.size, step):
+                ch = sel[i : i + step]
+                A = self._cfg.E[kc[ch]] - s[ch, None]  # z_j − c
+                lam0 = beta_log_sum(A * zc[None, :], self.beta)  # Σ β_j log(1 − c/z_j)
+                b = log_coefficients(S[ch, None] / A, self.beta, int(o))
+                G[i : i + step] = exp_series(b, self.constant * np.exp(lam0))
+            remap = np.full(K, -1)
+            remap[sel] = np.arange(sel.size)
+            pts = np.flatnonzero(remap[cid] >= 0)
+            rows = remap[cid[pts]]
+            u = t[pts] / S[cid[pts]]
+            Gi = G / np.arange(1, G.shape[1] + 1)[None, :]
+            out_f[pts] = fc[cid[pts]] + S[cid[pts]] * u * horner(Gi, rows, u)
+            if derivative:
+                out_d[pts] = horner(G, rows, u)
+        return out_f, out_d
+
+    def _eval_clusters_tree(self, toff, cid, cen, rho, derivative):
+        """f (and f') at the points ``cen[cid] + t`` from the Taylor series about their
+        cluster centre.
 
         Cluster i has centre ``cen[i]`` (closed disk) and all its points within ``rho[i] ≤
         R_i/2`` of it. The coefficients of log f' about all centres come from the far-field
@@ -749,8 +901,8 @@ class DiskMap:
         Next to a prevertex f(c) comes from the prevertex series instead (relative accuracy).
         """
         K = cen.size
-        out_f = np.empty(z.size, dtype=np.complex128)
-        out_d = np.empty(z.size, dtype=np.complex128) if derivative else None
+        out_f = np.empty(toff.size, dtype=np.complex128)
+        out_d = np.empty(toff.size, dtype=np.complex128) if derivative else None
         if K == 0:
             return out_f, out_d
         # a region of radius R/4 costs no more terms than a smaller one (order ≥ 32)
@@ -855,9 +1007,9 @@ class DiskMap:
         if iv.size:
             fc[iv] = self._eval_vertex(kk[iv], dkk[iv], False)[0]
         # the points
-        out_f[:] = fc[cid] + integral(cid, z - cen[cid])
+        out_f[:] = fc[cid] + integral(cid, toff)
         if derivative:
-            out_d[:] = series(cid, z - cen[cid], False)
+            out_d[:] = series(cid, toff, False)
         return out_f, out_d
 
     def __call__(self, z: np.ndarray) -> np.ndarray:
@@ -919,9 +1071,10 @@ class DiskMap:
     def map_clusters(
         self,
         points: np.ndarray,
-        cluster_ids: np.ndarray,
-        centers: np.ndarray,
+        cluster_ids: np.ndarray | None,
+        centers: np.ndarray | None,
         derivative: bool = False,
+        offsets: OffsetFunction | None = None,
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Evaluate f (and f' if ``derivative``) at ``points``, cluster by cluster.
 
@@ -930,13 +1083,36 @@ class DiskMap:
         from the centre to the prevertices); the points of other clusters are regrouped as in
         ``__call__`` (prevertex series, dyadic cells). Series coefficients come from the
         far-field tree and values at the centres from radial anchor chains (§1.10, see
-        :meth:`_eval_clusters`); the order is chosen per cluster from ``max|t|/R`` for an
-        error ≈ 1e-16 relative to the local scale.
+        :meth:`_eval_clusters_tree`); centres within :data:`CROWD_RADIUS` of a prevertex work
+        in local coordinates (:meth:`_eval_clusters_local`). The order is chosen per cluster
+        from ``max|t|/R`` for an error ≈ 1e-16 relative to the local scale.
+        ``cluster_ids = centers = None``: no given clusters, the points are grouped as in
+        ``__call__``.
+
+        Exact offsets (points that complex128 cannot resolve, e.g. disk-mesh vertices 1e-15
+        from the circle next to prevertex gaps of 1e-13): every series is evaluated at an
+        offset ``t = z − p`` from a float64 centre or a long double prevertex ``p``, so ``f`` is
+        as accurate as ``t``. ``offsets(refs, index)`` must return ``points[index] − refs``
+        (complex128, accurate relative to the result) for long double ``refs`` broadcast
+        against ``index`` — e.g. :meth:`quadmesh.disk.DiskMesh.offsets_from`; ``points`` then
+        only locates the points. If ``points`` is clongdouble and ``offsets`` None, the offsets
+        are its long double differences. Long double ``centers`` are rounded to complex128 (the
+        series centre is that rounded point; the offsets stay exact).
         """
-        z = np.asarray(points, dtype=np.complex128).ravel()
-        cid = np.asarray(cluster_ids, dtype=np.intp).ravel()
-        cen = np.asarray(centers, dtype=np.complex128).ravel()
-        f, fp = self._evaluate_grouped(z, cid, cen, derivative)
+        pts = np.asarray(points)
+        if pts.dtype == np.clongdouble and offsets is None:
+            zl = pts.ravel()
+
+            def offsets(refs: np.ndarray, index: np.ndarray) -> np.ndarray:
+                return (zl[index] - refs).astype(np.complex128)
+
+        z = pts.astype(np.complex128).ravel()
+        if cluster_ids is None:
+            cid = cen = None
+        else:
+            cid = np.asarray(cluster_ids, dtype=np.intp).ravel()
+            cen = np.asarray(centers).astype(np.complex128).ravel()
+        f, fp = self._evaluate_grouped(z, cid, cen, derivative, offsets)
         return (f, fp) if derivative else f
 
     # ------------------------------------------------------------------ inverse
