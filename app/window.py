@@ -78,6 +78,7 @@ _OPTION_SPECS: dict[str, tuple[str, str, float, float, float, int]] = {
     "lemma_A": ("Lemma 2.2 factor A", "float", 1.01, 1e4, 1.0, 2),
     "channel_delta": ("channel δ", "float", 0.001, 0.999, 0.01, 3),
     "sector_ratio": ("sector ratio λ", "float", 0.01, 0.99, 0.05, 3),
+    "rotations": ("disk rotations tried", "int", 1, 40, 1, 0),
 }
 
 
@@ -246,6 +247,10 @@ class MainWindow(QMainWindow):
         self.adaptive_check.setChecked(defaults.adaptive)
         self.option_widgets["adaptive"] = self.adaptive_check
         mf.addRow(self.adaptive_check)
+        self.repair_check = QCheckBox("local angle repair (off: raise n)")
+        self.repair_check.setChecked(defaults.repair)
+        self.option_widgets["repair"] = self.repair_check
+        mf.addRow(self.repair_check)
         brow = QHBoxLayout()
         self.mesh_button = QPushButton("Mesh")
         self.mesh_button.setObjectName("mesh_button")
@@ -552,6 +557,7 @@ class MainWindow(QMainWindow):
                 kw[name] = w.value()
         kw["n"] = int(kw["n"])
         kw["max_n"] = int(kw["max_n"])
+        kw["rotations"] = int(kw["rotations"])
         valid = {f.name for f in dataclasses.fields(MeshOptions)}
         return MeshOptions(**{k: v for k, v in kw.items() if k in valid})
 

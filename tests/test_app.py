@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QTimer
 
+from quadmesh import MeshOptions
 from tests.helpers import L_SHAPE, require_pipeline
 
 pytestmark = pytest.mark.gui
@@ -340,3 +341,15 @@ def test_cancel_real_mesher(main_window, qtbot):
     assert win.result is None and win.last_error is None
     assert win.progress_bar.format() == "cancelled"
     assert win.mesh_button.isEnabled()
+
+
+def test_option_controls_reach_mesh_options(main_window):
+    """Every MeshOptions knob shown in the panel reaches the mesher, the new ones included."""
+    win = main_window
+    opts = win.mesh_options()
+    assert opts.repair is True and opts.rotations == MeshOptions().rotations
+    win.repair_check.setChecked(False)
+    win.option_widgets["rotations"].setValue(1)
+    win.option_widgets["lemma_A"].setValue(16.0)
+    opts = win.mesh_options()
+    assert opts.repair is False and opts.rotations == 1 and opts.lemma_A == 16.0
