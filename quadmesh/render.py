@@ -764,6 +764,11 @@ def build_layer(
     if name not in builders:
         raise ValueError(f"unknown layer {name!r}; expected one of {PLANE_LAYERS + DISK_LAYERS}")
     parts = [p for p in builders[name](result) if p.mesh.n_points > 0]
+    origin = complex(getattr(result, "origin", 0j))
+    if origin and name in ("thick_pieces", "thin_parts", "crosscuts", "conformal_images"):
+        # these stages ran on the polygon translated by −origin (MeshResult.origin)
+        for p in parts:
+            p.mesh.translate((origin.real, origin.imag, 0.0), inplace=True)
     return LayerGeometry(name, "plane", parts)
 
 

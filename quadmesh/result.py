@@ -170,3 +170,8 @@ class MeshResult:
     timings: dict[str, float] = field(default_factory=dict)
     quad_source: np.ndarray | None = None
     """Per final quad: 0 = disk mesh of a thick piece, 1 = vertex sector, 2 = channel."""
+    origin: complex = 0j
+    """Working origin: for a polygon far from 0 (centre beyond 4 diameters) the stages run on
+    the polygon translated exactly by −origin, so ``decomposition``, ``pieces`` and ``thin``
+    hold plane points relative to ``origin``; ``polygon`` and ``mesh`` are always in the
+    input's coordinates. 0 for every other polygon."""
