@@ -105,3 +105,15 @@ def test_degenerate_crowded_piece_is_refused_at_once():
         _refuse_degenerate(crowded, bad)
     _refuse_degenerate(crowded, good)  # ordinary distortion: the loop's business
     _refuse_degenerate(spread, bad)  # not crowded: the loop's business
+
+
+def test_repair_refuses_large_moves():
+    """A distortion that needs vertices to move by more than max_shift of an edge is not a
+    small correction: None, so that the caller raises n instead."""
+    z, q = _grid(8)
+    mov = _interior(z, q)
+    z = z.copy()
+    z[4 * 9 + 4] += 0.06 + 0.04j
+    got = repair_angles(z, q, mov)
+    assert got is not None
+    assert repair_angles(z, q, mov, max_shift=0.5 * got[1].max_shift) is None
