@@ -267,3 +267,40 @@ def test_inscribed_center() -> None:
     assert abs(c) < 1e-6 and abs(r - np.cos(np.pi / 7)) < 1e-6
     c, r = inscribed_center(np.column_stack([L_SHAPE.real, L_SHAPE.imag]))
     assert abs(r - np.sqrt(2) / (1 + np.sqrt(2))) < 1e-3
+
+
+def test_chord_newton_matches_full_newton(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Near the root Newton switches to residual-only evaluations with a reused Jacobian
+    (chord steps); the converged gaps agree with Newton forming the Jacobian at every
+    iterate, and the default never forms the Jacobian at the converged point."""
+    from quadmesh.benchmark import smooth_star
+    from quadmesh.conformal import diskmap
+
+    w = smooth_star(150, seed=150) @ np.array([1, 1j])
+    c = complex(inscribed_center(w)[0])
+    x0 = diskmap._x_from_gaps(diskmap._harmonic_gaps(w, c))
+
+    def solve(chord_below: float) -> tuple[np.ndarray, list[bool], float]:
+        monkeypatch.setattr(diskmap, "CHORD_BELOW", chord_below)
+        prob = _Problem(w, c, 12)
+        flags: list[bool] = []
+        inner = prob.evaluate_gaps
+
+        def recording(gaps: np.ndarray, jacobian: bool = True):
+            flags.append(jacobian)
+            return inner(gaps, jacobian)
+
+        prob.evaluate_gaps = recording
+        x, res, _, ok = diskmap._newton(prob, x0, TOL)
+        assert ok and res < 5e-14
+        return _Problem.gaps(x), flags, res
+
+    default = diskmap.CHORD_BELOW
+    g_full, flags_full, _ = solve(0.0)
+    g_chord, flags_chord, _ = solve(0.1)  # one Jacobian (at x0), then chord steps only
+    g_def, flags_def, _ = solve(default)
+    assert all(flags_full)
+    assert flags_chord.count(True) == 1 and len(flags_chord) > len(flags_full)
+    assert not flags_def[-1] and flags_def.count(True) < flags_full.count(True)
+    for g in (g_chord, g_def):
+        assert np.max(np.abs(g - g_full) / g_full) < 1e-11

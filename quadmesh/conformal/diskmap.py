@@ -19,11 +19,13 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 from scipy.spatial import QhullError, cKDTree
 
 from ..errors import ConformalMapError, PolygonError
@@ -238,30 +240,89 @@ def _x_from_gaps(gaps: np.ndarray) -> np.ndarray:
     return lg[:-1] - lg[-1]
 
 
+#: Near the root (max |residual| below this) Newton trial points are evaluated without the
+#: Jacobian, and the last Jacobian's LU factors are reused (chord steps) while each step
+#: shrinks |r| by CHORD_RATE or more: a residual-only evaluation costs ~60 % of one with the
+#: Jacobian, and the final Jacobian at the converged point is never formed. Measured at
+#: n = 1000 (smooth star): residuals 4e-2, 8e-5, 5e-7, 1e-11, 2e-15 — the last two now
+#: residual-only.
+CHORD_BELOW = 1e-5
+CHORD_RATE = 0.05
+
+
+def _factor(J: np.ndarray):
+    """LU factors of J, or None when J is exactly singular (then least squares is used)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LinAlgWarning)
+        lu, piv = lu_factor(J, check_finite=False)
+    d = np.diag(lu)
+    if not np.all(np.isfinite(lu)) or np.any(d == 0):
+        return None, J
+    return (lu, piv), J
+
+
+def _solve(fac, rhs: np.ndarray) -> np.ndarray:
+    lu, J = fac
+    if lu is None:
+        return np.linalg.lstsq(J, rhs, rcond=None)[0]
+    return lu_solve(lu, rhs, check_finite=False)
+
+
 def _newton(prob: _Problem, x0: np.ndarray, tol: float, maxit: int = 50):
-    """Damped Newton with analytic Jacobian. Returns (x, max|res|, iterations, ok)."""
+    """Damped Newton with analytic Jacobian. Returns (x, max|res|, iterations, ok).
+
+    Backtracking (Armijo) line search on |r|. Once max|r| < CHORD_BELOW the trial points are
+    evaluated without the Jacobian and the factored Jacobian is reused (chord iteration) as
+    long as every step contracts |r| by CHORD_RATE; otherwise the Jacobian is re-formed at
+    the current point. Near the rounding floor (max|r| < 1e-3 tol) only the full step is
+    tried.
+    """
     x = x0.copy()
     try:
         r, J, *_ = prob.evaluate(x)
     except QuadratureError:
         return x, math.inf, 0, False
+    fac = _factor(J)
+    fresh = True  # fac holds the Jacobian at x
     nr = float(np.linalg.norm(r))
     it = 0
     for it in range(1, maxit + 1):  # noqa: B007 (it is returned)
-        if np.max(np.abs(r)) < 5e-14:
+        rmax = float(np.max(np.abs(r)))
+        if rmax < 5e-14:
             break
-        try:
-            dx = np.linalg.solve(J, -r)
-        except np.linalg.LinAlgError:
-            dx = np.linalg.lstsq(J, -r, rcond=None)[0]
+        cheap = rmax < CHORD_BELOW
+        dx = _solve(fac, -r)
         big = np.max(np.abs(dx))
         if big > 5.0:
             dx *= 5.0 / big
-        t = 1.0
-        accepted = False
-        while t >= 1.0 / 1024:
+        if cheap and not fresh:
+            # chord step with the Jacobian of an earlier iterate
             try:
-                r2, J2, *_ = prob.evaluate(x + t * dx)
+                r2 = prob.evaluate(x + dx, jacobian=False)[0]
+                n2 = float(np.linalg.norm(r2))
+            except QuadratureError:
+                n2 = math.inf
+            if n2 < CHORD_RATE * nr:
+                x = x + dx
+                r, nr = r2, n2
+                continue
+            try:
+                r, J, *_ = prob.evaluate(x)
+            except QuadratureError:
+                break
+            nr = float(np.linalg.norm(r))
+            fac = _factor(J)
+            fresh = True
+            dx = _solve(fac, -r)
+            big = np.max(np.abs(dx))
+            if big > 5.0:
+                dx *= 5.0 / big
+        t = 1.0
+        tmin = 1.0 if rmax < 1e-3 * tol else 1.0 / 1024
+        accepted = False
+        while t >= tmin:
+            try:
+                r2, J2, *_ = prob.evaluate(x + t * dx, jacobian=not cheap)
                 n2 = float(np.linalg.norm(r2))
                 if n2 < (1.0 - 1e-4 * t) * nr:
                     accepted = True
@@ -272,7 +333,12 @@ def _newton(prob: _Problem, x0: np.ndarray, tol: float, maxit: int = 50):
         if not accepted:
             break
         x = x + t * dx
-        r, J, nr = r2, J2, n2
+        r, nr = r2, n2
+        if cheap:
+            fresh = False
+        else:
+            fac = _factor(J2)
+            fresh = True
     res = float(np.max(np.abs(r)))
     return x, res, it, res < tol
 

@@ -38,7 +38,9 @@ __all__ = [
 ]
 
 TWO_PI = 2.0 * np.pi
-_CHUNK_ENTRIES = 262_144  # nodes × prevertices per evaluation chunk
+#: nodes × prevertices per evaluation chunk: the ~8 temporaries of a chunk should stay in
+#: cache (measured at n = 1000: 65536 → 0.45 s, 262144 → 0.48 s, 1048576 → 0.60 s)
+_CHUNK_ENTRIES = 65_536
 
 
 class QuadratureError(ArithmeticError):
@@ -297,19 +299,20 @@ def integrate(
             # log is ~10× slower than log∘hypot plus arctan2)
             Ar = Er[bq] - dq.real[:, None]
             Ai = Ei[bq] - dq.imag[:, None]
-            hyp = np.hypot(Ar, Ai)
-            lr = np.log(hyp)
+            # |A|² directly: hypot is several times slower, and |A| ≥ the panel scale
+            # (≫ 1e-150) keeps the square far from underflow
+            m2 = Ar * Ar + Ai * Ai
+            lr = np.log(m2)
             la = np.arctan2(Ar * zci + Ai * zcr, Ar * zcr - Ai * zci)
             pv = np.flatnonzero(bq < n)
             lr[pv, bq[pv]] = 0.0
             la[pv, bq[pv]] = 0.0
-            val = W[lo:hi] * np.exp(lr @ beta + 1j * (la @ beta))
+            val = W[lo:hi] * np.exp(lr @ (0.5 * beta) + 1j * (la @ beta))
             oq = owner[lo:hi]
             H += np.bincount(oq, weights=val.real, minlength=nint) + 1j * np.bincount(
                 oq, weights=val.imag, minlength=nint
             )
             if jacobian:
-                m2 = hyp * hyp
                 Rr = Ar / m2
                 Ri = -Ai / m2
                 Rr[pv, bq[pv]] = 0.0
