@@ -138,13 +138,38 @@ def _pen_arc(degrees: float, width: float = 0.8) -> np.ndarray:
 
 
 def test_curved_pen_stroke_meshes():
-    """A 270° pen stroke: a curved corridor ~12 widths long whose walls are chains of short
-    edges. Its prevertices crowd to ~1e-13 rad (extended-precision disk construction and
-    exact-offset push-forward), and Lemma 2.2's arcs interlock at the default A = 4, so
-    the piece falls back to A = 16."""
-    poly = _pen_arc(270.0)
+    """A 250° pen stroke: a curved corridor ~11 widths long whose walls are chains of short
+    edges stays one thick piece; its prevertex gaps crowd to 1.1e-12 rad, below the former
+    float64 disk limit (1e-11), and it meshes through the extended-precision disk
+    construction and the exact-offset push-forward. (A 270° stroke crowds to ~1e-14 and
+    sits on the 5e-15 arc limit.)"""
+    poly = _pen_arc(250.0)
     r = mesh_polygon(poly)
     assert r.verification.ok
     assert r.quality.n_angles_outside == 0
     assert r.quality.n_quads / len(poly) < 1500
+    th = np.sort(np.mod(np.asarray(r.pieces[0].map.theta, dtype=float), 2 * np.pi))
+    assert np.min(np.diff(np.r_[th, th[0] + 2 * np.pi])) < 1e-11
+
+
+def test_interlocking_arcs_fall_back_to_a16(monkeypatch):
+    """When Lemma 2.2's chains interlock at the default A (a scale-free ~3/40 of arc sets at
+    A = 4), the piece is rebuilt with A = 16 and arcs of 1/16 of the gap: same cores, same
+    crosscut vertex counts; the fix is recorded."""
+    import quadmesh.disk as disk_pkg
+    from quadmesh.errors import DiskConstructionError
+
+    real = disk_pkg.disk_mesh
+    seen = []
+
+    def interlocking(intervals, *, A=None, **kw):
+        seen.append(A)
+        if A < 16:
+            raise DiskConstructionError("the chains of J_1 and J_2 interlock: A is too small")
+        return real(intervals, A=A, **kw)
+
+    monkeypatch.setattr(disk_pkg, "disk_mesh", interlocking)
+    r = mesh_polygon(_notch(1e-3))
+    assert seen[:2] == [4.0, 16.0]
+    assert r.verification.ok and r.quality.n_angles_outside == 0
     assert any("A = 16 used" in f for p in r.pieces for f in p.fixes)
