@@ -1,0 +1,257 @@
+"""The thick-piece stage (paper §7): solve a piece's Schwarz–Christoffel map, choose its arcs
+I_j (:mod:`quadmesh.arcs`), build Lemma 2.2's region W and its mesh (Lemmas 4.1, 5.1, 6.1,
+:func:`quadmesh.disk.disk_mesh`), with the A = 16 fallback of Lemma 2.2, push it forward
+(:mod:`quadmesh.pushforward`) and check or locally repair its angles (:mod:`quadmesh.repair`).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .arcs import best_rotation, piece_intervals
+from .errors import ConformalMapError, DiskConstructionError
+from .geometry import quad_angles_deg
+from .pushforward import RotatedMap, push_forward
+from .result import MeshOptions
+
+__all__ = [
+    "ANGLE_MAX",
+    "ANGLE_MIN",
+    "ANGLE_TOL",
+    "PieceWork",
+    "angle_tol",
+    "collect_angle_faults",
+    "deepest_landmark",
+    "disk_and_image",
+    "prepare_piece",
+    "refuse_degenerate",
+    "repair_note",
+]
+
+ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
+#: Slack on the angle bounds for rounding: angles that are exactly 60° or 120° by
+#: construction (Mesh 1, Mesh 2, the spokes of T_i) come out within ~1e-10 of them.
+ANGLE_TOL = 1e-6
+
+
+@dataclass
+class PieceWork:
+    """Work data of one thick piece: its map, its arcs and what each arc belongs to."""
+
+    index: int
+    z: np.ndarray
+    fmap: object
+    theta: np.ndarray
+    intervals: np.ndarray
+    owners: list[tuple[str, int]]
+    stretches: list
+    repair: object = None
+    lemma_A: float | None = None  # set when the piece fell back to FALLBACK_A
+
+
+def prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> PieceWork:
+    """Solve the Schwarz–Christoffel map of a thick piece and choose its arcs I_j."""
+    from .conformal import DiskMap
+
+    t0 = time.perf_counter()
+    try:
+        fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
+    except ConformalMapError as exc:
+        raise ConformalMapError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise ConformalMapError(
+            f"thick piece {piece.index} ({len(piece.z)} vertices): the parameter problem broke "
+            f"down numerically ({exc}); the piece is too crowded for a disk map"
+        ) from exc
+    timings["conformal"] = timings.get("conformal", 0.0) + time.perf_counter() - t0
+    t0 = time.perf_counter()
+    theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
+    stretches = [(int(c.start), int(c.stop)) for c in piece.crosscuts]
+    try:
+        psi, intervals, owners = best_rotation(theta, stretches, options)
+    except DiskConstructionError as exc:
+        raise DiskConstructionError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+    if psi != 0.0:
+        fmap = RotatedMap(fmap, psi)
+        theta = np.asarray(fmap.theta)
+    timings["intervals"] = timings.get("intervals", 0.0) + time.perf_counter() - t0
+    return PieceWork(piece.index, np.asarray(piece.z), fmap, theta, intervals, owners, stretches)
+
+
+def deepest_landmark(inner_height: float) -> float:
+    """The deepest triangle landmark D5 (DISK.md §6); the depth sequence must go beyond it."""
+    from .disk.carleson_triangle import triangle_landmarks
+
+    return float(triangle_landmarks(inner_height).D5)
+
+
+def disk_and_image(
+    pd: PieceWork,
+    n: int,
+    step: float,
+    dmax: float | None,
+    options: MeshOptions,
+    timings: dict[str, float],
+):
+    """Lemma 2.2 region and its mesh for one piece, pushed forward (paper §7)."""
+    from .disk import disk_mesh
+
+    t0 = time.perf_counter()
+
+    def build(intervals: np.ndarray, A: float):
+        return disk_mesh(
+            intervals,
+            A=A,
+            n=n,
+            depth_step=step,
+            inner_height=options.inner_height,
+            depth_growth=options.depth_growth,
+            depth_max=None
+            if dmax is None
+            else max(dmax, deepest_landmark(options.inner_height) + 0.5),
+        )
+
+    try:
+        disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
+    except DiskConstructionError as exc:
+        # Lemma 2.2's chains of neighbouring arcs can interlock when A is small (a
+        # scale-free ~3/40 of random arc sets at A = 4): this piece falls back to the
+        # paper-sized A = 16 with arcs of 1/16 of the neighbouring gap (same cores, same
+        # crosscut vertex counts, so the channels still match)
+        if pd.lemma_A is not None or options.lemma_A >= FALLBACK_A:
+            raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
+        fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
+        try:
+            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback)
+            disk = build(intervals, FALLBACK_A)
+        except DiskConstructionError as exc2:
+            raise DiskConstructionError(
+                f"thick piece {pd.index}: {exc.args[0]} (and with A = {FALLBACK_A:g}: "
+                f"{exc2.args[0]})"
+            ) from exc2
+        if owners != pd.owners:
+            raise DiskConstructionError(
+                f"thick piece {pd.index}: {exc.args[0]} (the A = {FALLBACK_A:g} fallback "
+                "changed the arcs' owners)"
+            ) from exc
+        pd.intervals, pd.lemma_A = intervals, FALLBACK_A
+    timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
+    t0 = time.perf_counter()
+    try:
+        image = push_forward(pd.fmap, disk, pd.theta, pd.z)
+    except (ArithmeticError, np.linalg.LinAlgError) as exc:
+        raise ConformalMapError(
+            f"thick piece {pd.index}: evaluating the map at the disk mesh failed ({exc})"
+        ) from exc
+    if not np.all(np.isfinite(image)):
+        raise ConformalMapError(f"thick piece {pd.index}: the map gave non-finite mesh vertices")
+    timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
+    pd.repair = None
+    if options.repair:
+        image = _repair_image(pd, disk, image, timings)
+    return disk, image
+
+
+#: A (and crosscut ratio) of the per-piece fallback when Lemma 2.2's arcs interlock.
+FALLBACK_A = 16.0
+
+#: Pushed-forward angles this far outside [60°, 120°] are not the O(1/n) distortion that the
+#: adaptive loop cures but numerical breakdown (inverted or collapsed quads).
+DEGENERATE_ANGLES = (20.0, 200.0)
+#: Prevertex gap (radians) below which such a breakdown is attributed to crowding.
+CROWDED_GAP = 1e-10
+
+
+def refuse_degenerate(pd: PieceWork, ang: np.ndarray) -> None:
+    """Raise at once when a crowded piece's pushed-forward mesh is numerically degenerate.
+
+    Raising n or lowering the depth step makes such a mesh larger, never valid (glyph_s took
+    37 s to fail that way), so the loop is not entered.
+    """
+    lo, hi = DEGENERATE_ANGLES
+    if not np.any((ang < lo) | (ang > hi)):
+        return
+    th = np.sort(np.mod(np.asarray(pd.theta, dtype=float), 2 * np.pi))
+    gap = float(np.min(np.diff(np.r_[th, th[0] + 2 * np.pi])))
+    if gap >= CROWDED_GAP:
+        return
+    raise DiskConstructionError(
+        f"thick piece {pd.index}: its prevertices crowd to gaps of {gap:.2g} rad and the "
+        f"pushed-forward disk mesh is numerically degenerate there (angles "
+        f"[{float(ang.min()):.1f}°, {float(ang.max()):.1f}°]): double precision cannot resolve "
+        "the map of this piece (typically a long curved corridor whose walls are chains of "
+        "short edges); a larger n cannot help"
+    )
+
+
+def angle_tol(image: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """(Q,) slack (degrees) on the angle bounds per quad: ANGLE_TOL plus what float64 storage
+    of the vertices can put on the angles of that quad (as the final verifier allows)."""
+    from .geometry import angle_rounding_slack_deg
+
+    return ANGLE_TOL + angle_rounding_slack_deg(image, quads)
+
+
+def repair_note(pd: PieceWork) -> tuple[str, ...]:
+    """Fix notes of a piece (A fallback, local repair of its pushed-forward mesh) for
+    ThickPieceResult.fixes."""
+    notes: tuple[str, ...] = ()
+    if pd.lemma_A is not None:
+        notes = (f"Lemma 2.2 arcs interlocked at the default A: A = {pd.lemma_A:g} used",)
+    rep = pd.repair
+    if rep is None or rep.moved.size == 0:
+        return notes
+    return (
+        *notes,
+        f"angles [{rep.before[0]:.2f}, {rep.before[1]:.2f}] repaired locally: "
+        f"{rep.moved.size} interior vertices moved by at most {100 * rep.max_shift:.2g}% of "
+        f"their shortest edge, now [{rep.after[0]:.2f}, {rep.after[1]:.2f}]",
+    )
+
+
+def _repair_image(pd: PieceWork, disk, image: np.ndarray, timings: dict[str, float]) -> np.ndarray:
+    """Local angle repair of a pushed-forward disk mesh (:mod:`quadmesh.repair`): only
+    vertices off the boundary of W (not on the circle, not on the geodesics over the J_j
+    whose images the thin parts are built on) move. Returns the image, repaired if needed
+    and possible; ``pd.repair`` keeps the report."""
+    from .geometry import unpaired_edges
+    from .repair import repair_angles
+
+    ang = quad_angles_deg(image, disk.quads)
+    tol = angle_tol(image, disk.quads)[:, None]
+    if not np.any((ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)):
+        return image
+    t0 = time.perf_counter()
+    edges, _ = unpaired_edges(disk.quads)
+    movable = np.ones(image.size, dtype=bool)
+    movable[np.unique(edges)] = False
+    movable[np.asarray(disk.on_circle, dtype=bool)] = False
+    for g in disk.gamma:
+        movable[np.asarray(g)] = False
+    got = repair_angles(image, disk.quads, movable, tol=angle_tol(image, disk.quads))
+    timings["repair"] = timings.get("repair", 0.0) + time.perf_counter() - t0
+    if got is None:
+        return image
+    pd.repair = got[1]
+    return got[0]
+
+
+def collect_angle_faults(
+    pd: PieceWork, disk, image: np.ndarray, bad_kind: dict[str, tuple[float, float, int]]
+) -> None:
+    """Record in ``bad_kind`` (disk quad kind -> (min angle, max angle, piece index)) the
+    kinds of disk quads whose pushed-forward angles leave [60°, 120°] beyond
+    :func:`angle_tol`, merged with what earlier pieces recorded; raise at once when the
+    piece's mesh is numerically degenerate (:func:`refuse_degenerate`)."""
+    ang = quad_angles_deg(image, disk.quads)
+    tol = angle_tol(image, disk.quads)[:, None]
+    out = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
+    refuse_degenerate(pd, ang)
+    for kind in np.unique(disk.kind[out.any(axis=1)]):
+        sel = ang[disk.kind == kind]
+        lo, hi = float(sel.min()), float(sel.max())
+        old = bad_kind.get(str(kind), (ANGLE_MIN, ANGLE_MAX, pd.index))
+        bad_kind[str(kind)] = (min(lo, old[0]), max(hi, old[1]), pd.index)
