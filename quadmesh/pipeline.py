@@ -21,13 +21,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 
-from .errors import Cancelled, DiskConstructionError, MeshVerificationError, ThinPartError
+from .errors import (
+    Cancelled,
+    ConformalMapError,
+    DiskConstructionError,
+    MeshVerificationError,
+    ThinPartError,
+)
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
-from .result import MeshOptions, MeshResult
+from .result import MeshOptions, MeshResult, ThinPartResult
 from .thick import (
     ANGLE_TOL,
     PieceWork,
@@ -35,6 +42,7 @@ from .thick import (
     disk_and_image,
     prepare_piece,
 )
+from .thin.corridor import whole_corridor
 
 __all__ = ["MeshOptions", "MeshResult", "mesh_polygon"]
 
@@ -138,73 +146,97 @@ def mesh_polygon(
     dec = decompose(work_poly, DecomposeOptions(delta=options.channel_delta))
     timings["decompose"] = time.perf_counter() - t0
 
-    work: list[PieceWork] = []
-    for i, piece in enumerate(dec.thick):
-        report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
-        work.append(prepare_piece(piece, options, timings))
-
-    # One (n, depth step) for all pieces: both sides of a channel must carry the same
-    # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
-    # converge like O(1/n)); Carleson images out of range -> halve the depth step.
-    n, step, dmax = options.n, options.depth_step, options.depth_max
-    fixes: list[str] = []
-    while True:  # thin parts failing -> raise n and rebuild
-        while True:
-            disks = []
-            bad_kind: dict[str, tuple[float, float, int]] = {}
-            for i, pd in enumerate(work):
-                report("disk mesh", 0.4 + 0.3 * i / len(work))
-                disk, image = disk_and_image(pd, n, step, dmax, options, timings)
-                disks.append((disk, image))
-                collect_angle_faults(pd, disk, image, bad_kind)
-            if not bad_kind:
-                break
-            what = ", ".join(
-                f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
-            )
-            if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
-                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                fixes.append(f"{what}: n raised to {n}")
-            elif options.adaptive and step > MIN_DEPTH_STEP:
-                step = max(step / 2, MIN_DEPTH_STEP)
-                dmax = None  # and the notes' full depth log(8/step) + 2
-                fixes.append(f"{what}: depth step lowered to {step:g}")
-            elif options.adaptive and n < options.max_n:
-                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                fixes.append(f"{what}: n raised to {n}")
-            else:
-                raise DiskConstructionError(
-                    f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
-                    f"step {step:g}); the conformal map distorts the disk mesh too much"
-                )
-
+    # A polygon that stays one crowded thick piece (a pen stroke, a letter, a river) is a
+    # corridor: meshed by straight cells, no conformal map (thin/corridor.py).
+    report("corridor", 0.08)
+    t0 = time.perf_counter()
+    corridor, corridor_why = whole_corridor(dec)
+    timings["corridor"] = time.perf_counter() - t0
+    if corridor is not None:
         asm = Assembler()
-        pieces, gam = glue_thick_pieces(asm, work, disks, dec, n, step, tuple(fixes))
-        t0 = time.perf_counter()
+        gl = asm.add_vertices(corridor.vertices)
+        asm.add_quads(gl[corridor.quads], source=3)
+        pieces, thin = [], [ThinPartResult("corridor", 0, corridor, gl)]
+        dec = replace(dec, thick=(), corners=())
+    else:
         try:
-            thin = glue_thin_parts(asm, dec, gam, options, report)
-        except ThinPartError as exc:
-            # a larger n puts more vertices on every crosscut (3·2n + 1 on its pentagon
-            # edges), so the thin parts' chords get shorter and flatter
-            timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
-            # Near a reflex vertex one hyperbolic unit of a crosscut's Carleson part spans up
-            # to ~1 rad of polar angle about the vertex (quasi-hyperbolic metric |dz|/r), so
-            # only a finer depth sequence puts more crosscut vertices there; n refines only
-            # the pentagon part (measured on a 331° stroke end and a 1:100 V-slit).
-            if not options.adaptive:
-                raise
-            if step > MIN_DEPTH_STEP:
-                step = max(step / 2, MIN_DEPTH_STEP)
-                fixes.append(f"{exc.args[0]}: depth step lowered to {step:g}")
-            elif n < options.max_n:
-                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                fixes.append(f"{exc.args[0]}: n raised to {n}")
-            else:
-                raise
-            continue
-        timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
-        break
+            work: list[PieceWork] = []
+            for i, piece in enumerate(dec.thick):
+                report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
+                work.append(prepare_piece(piece, options, timings))
 
+            # One (n, depth step) for all pieces: both sides of a channel must carry the same
+            # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
+            # converge like O(1/n)); Carleson images out of range -> halve the depth step.
+            n, step, dmax = options.n, options.depth_step, options.depth_max
+            fixes: list[str] = []
+            while True:  # thin parts failing -> raise n and rebuild
+                while True:
+                    disks = []
+                    bad_kind: dict[str, tuple[float, float, int]] = {}
+                    for i, pd in enumerate(work):
+                        report("disk mesh", 0.4 + 0.3 * i / len(work))
+                        disk, image = disk_and_image(pd, n, step, dmax, options, timings)
+                        disks.append((disk, image))
+                        collect_angle_faults(pd, disk, image, bad_kind)
+                    if not bad_kind:
+                        break
+                    what = ", ".join(
+                        f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
+                    )
+                    if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
+                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                        fixes.append(f"{what}: n raised to {n}")
+                    elif options.adaptive and step > MIN_DEPTH_STEP:
+                        step = max(step / 2, MIN_DEPTH_STEP)
+                        dmax = None  # and the notes' full depth log(8/step) + 2
+                        fixes.append(f"{what}: depth step lowered to {step:g}")
+                    elif options.adaptive and n < options.max_n:
+                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                        fixes.append(f"{what}: n raised to {n}")
+                    else:
+                        raise DiskConstructionError(
+                            "pushed-forward disk mesh angles out of [60°, 120°]: "
+                            f"{what} (n = {n}, depth "
+                            f"step {step:g}); the conformal map distorts the disk mesh too much"
+                        )
+
+                asm = Assembler()
+                pieces, gam = glue_thick_pieces(asm, work, disks, dec, n, step, tuple(fixes))
+                t0 = time.perf_counter()
+                try:
+                    thin = glue_thin_parts(asm, dec, gam, options, report)
+                except ThinPartError as exc:
+                    # a larger n puts more vertices on every crosscut (3·2n + 1 on its pentagon
+                    # edges), so the thin parts' chords get shorter and flatter
+                    timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+                    # Near a reflex vertex one hyperbolic unit of a crosscut's Carleson part
+                    # spans up
+                    # to ~1 rad of polar angle about the vertex (quasi-hyperbolic metric |dz|/r), so
+                    # only a finer depth sequence puts more crosscut vertices there; n refines only
+                    # the pentagon part (measured on a 331° stroke end and a 1:100 V-slit).
+                    if not options.adaptive:
+                        raise
+                    if step > MIN_DEPTH_STEP:
+                        step = max(step / 2, MIN_DEPTH_STEP)
+                        fixes.append(f"{exc.args[0]}: depth step lowered to {step:g}")
+                    elif n < options.max_n:
+                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                        fixes.append(f"{exc.args[0]}: n raised to {n}")
+                    else:
+                        raise
+                    continue
+                timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+                break
+
+
+        except (ConformalMapError, DiskConstructionError) as exc:
+            if corridor_why:
+                raise type(exc)(
+                    f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
+                    f"{corridor_why}"
+                ) from exc
+            raise
     report("verify", 0.9)
     t0 = time.perf_counter()
     z = asm.vertices() + origin

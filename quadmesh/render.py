@@ -98,7 +98,11 @@ LAYER_COLORS: dict[str, str] = {
     "disk_mesh": "#000000",
     "prevertices": "#000000",
 }
-THIN_COLORS: dict[str, str] = {"parabolic": "#f0a030", "hyperbolic": "#8e63c7"}
+THIN_COLORS: dict[str, str] = {
+    "parabolic": "#f0a030",
+    "hyperbolic": "#8e63c7",
+    "corridor": "#3aa37a",
+}
 PIECE_PALETTE: tuple[str, ...] = (
     "#8dd3c7",
     "#bebada",
@@ -447,7 +451,7 @@ def _layer_thick_pieces(result: Any) -> list[LayerPart]:
 
 def _layer_thin_parts(result: Any) -> list[LayerPart]:
     parts = []
-    for kind in ("parabolic", "hyperbolic"):
+    for kind in ("parabolic", "hyperbolic", "corridor"):
         sel = [t for t in result.thin if t.kind == kind]
         if not sel:
             continue

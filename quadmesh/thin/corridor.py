@@ -1,0 +1,610 @@
+"""Corridors: thin parts whose walls are chains of short edges, meshed by straight cells.
+
+A *corridor* is a strip between two wall chains L and R (any number of edges each) from a
+start tip s to an end tip e of the boundary.  Bishop's construction maps it conformally; in
+floating point it cannot, because the prevertex gaps of a corridor of length ℓ and width w
+shrink like exp(−π·ℓ/w) seen from the centre of any disk map.  Here it is meshed without any
+conformal map:
+
+* a *ladder layout* cuts the corridor by straight *rungs* (crosscuts) from the L wall to the R
+  wall into convex quadrilateral *cells* with every corner in [60°, 120°];
+* every wall vertex whose angle θ exceeds 120° is the end of one rung (θ ≤ 240°: two parts
+  in [60°, 120°]) or of a *fan* of two rungs (three parts); a wall vertex with θ ≤ 120° is a
+  cell corner (the far corner of a fan cell, or a corner of a cap cell);
+* the cells are refined by bilinear grids (:mod:`quadmesh.cells`): for a planar convex
+  quadrilateral every bilinear grid angle lies in the range of its corner angles and their
+  supplements, so every new angle stays in [60°, 120°].
+
+The layout is a shortest path in a directed acyclic graph whose nodes are candidate rungs
+(pairs of points, one on each wall: wall vertices and points sampled along the edges) and
+whose arcs are admissible cells between two rungs; the cost of a cell rewards corners near
+90° and penalises sliver cells.  Rungs never cross because both ends advance monotonically
+along their walls.  A Dijkstra search (scipy) finds the best layout in one pass, not a greedy
+sequence of cuts that has to be repaired afterwards.
+
+Cells (each a quadrilateral, corners counter-clockwise):
+
+* *ladder*: rung (a, b) to rung (a', b') with no wall vertex strictly between: (a, a', b', b);
+* *fan* at a: two rungs from the same L point a with exactly one R vertex r between their far
+  ends: (a, b', r, b) (symmetrically at b, with one L vertex l: (a, l, a', b));
+* *cap*: the part of the polygon cut off by the first (last) rung, which must hold exactly two
+  polygon vertices besides the rung's ends (a flat or bevelled end).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from ..errors import ThinPartError
+from ..polygon import interior_angles
+
+__all__ = ["CorridorLayout", "corridor_tips", "ladder_layout"]
+
+#: Margin (degrees) kept inside [60°, 120°] by every cell corner of a layout.
+CELL_MARGIN = 1.0
+
+
+@dataclass(frozen=True)
+class CorridorLayout:
+    """A ladder layout of a corridor polygon.
+
+    Attributes:
+        vertices: (V,) complex coarse vertices; the first ``n`` are the polygon's vertices in
+            its own order, the rest are rung ends on the polygon's edges.
+        cells: (C, 4) counter-clockwise indices into ``vertices``.
+        kind: (C,) "cap", "ladder" or "fan" per cell.
+        rungs: (R, 2) vertex indices (L end, R end) of the rungs in order from s to e.
+        tips: (s, e) polygon vertex indices where the two walls meet.
+        edge_of: (V,) polygon edge index holding each coarse vertex (−1 for polygon vertices).
+    """
+
+    vertices: np.ndarray
+    cells: np.ndarray
+    kind: tuple[str, ...]
+    rungs: np.ndarray
+    tips: tuple[int, int]
+    edge_of: np.ndarray
+
+
+def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle (degrees, in [0, 360)) from direction u counter-clockwise to direction v."""
+    a = np.degrees(np.angle(v * np.conj(u)))
+    return np.where(a < 0, a + 360.0, a)
+
+
+def corridor_tips(z: np.ndarray) -> tuple[int, int]:
+    """The two tips (s, e) of a corridor polygon: the apexes of the two ear triangles at the
+    ends of the longest path in the dual tree of a constrained Delaunay triangulation (the
+    path follows the corridor's medial axis; its ends are the corridor's two ends)."""
+    n = z.size
+    poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
+    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
+    coords = shapely.get_coordinates(tris).reshape(len(tris), 4, 2)[:, :3]
+    key = {complex(x, y): i for i, (x, y) in enumerate(zip(z.real, z.imag))}
+    try:
+        tri = np.array([[key[complex(x, y)] for x, y in t] for t in coords])
+    except KeyError as exc:  # pragma: no cover - the triangulation adds no points
+        raise ThinPartError("the corridor's triangulation introduced new points") from exc
+    # edges of each triangle, as sorted vertex pairs
+    e = np.sort(np.stack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]], axis=1), axis=2)
+    ek = e[..., 0] * n + e[..., 1]
+    flat = ek.ravel()
+    order = np.argsort(flat, kind="stable")
+    fs = flat[order]
+    same = np.flatnonzero(fs[1:] == fs[:-1])
+    t_of = order // 3
+    a, b = t_of[same], t_of[same + 1]
+    cen = z[tri].mean(axis=1)
+    w = np.abs(cen[a] - cen[b])
+    m = len(tri)
+    g = coo_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
+    d0 = dijkstra(g, indices=0)
+    t1 = int(np.argmax(d0))
+    d1, _pred = dijkstra(g, indices=t1, return_predecessors=True)
+    t2 = int(np.argmax(d1))
+
+    def apex(t: int) -> int:
+        # the vertex of triangle t shared by its two polygon edges (an ear), else the vertex
+        # with the smallest interior angle
+        v = tri[t]
+        bnd = [
+            (v[i], v[(i + 1) % 3]) for i in range(3) if (v[(i + 1) % 3] - v[i]) % n in (1, n - 1)
+        ]
+        if len(bnd) >= 2:
+            common = set(bnd[0]) & set(bnd[1])
+            if common:
+                return int(common.pop())
+        ang = interior_angles(z)[v]  # radians
+        return int(v[int(np.argmin(ang))])
+
+    return apex(t1), apex(t2)
+
+
+@dataclass
+class _Chain:
+    """Points of one wall chain, ordered from s to e (tips excluded)."""
+
+    pos: np.ndarray  # complex
+    gid: np.ndarray  # coarse vertex id (polygon vertex index or n + sample index)
+    is_vertex: np.ndarray  # bool
+    theta: np.ndarray  # interior angle (deg), 180 for edge samples
+    nxt: np.ndarray  # unit direction toward e along the wall
+    sigma: np.ndarray  # arc length from s
+    vrank: np.ndarray  # number of polygon vertices among points[0..i]
+    width: np.ndarray  # distance to the opposite wall
+
+
+def _chain(s: int, e: int, forward: bool, n: int) -> list[int]:
+    """Vertex sequence of the wall from s to e (forward = counter-clockwise)."""
+    step = 1 if forward else -1
+    verts = []
+    k = s
+    while True:
+        k = (k + step) % n
+        if k == e:
+            break
+        verts.append(k)
+    return verts
+
+
+def ladder_layout(
+    z: np.ndarray,
+    tips: tuple[int, int] | None = None,
+    *,
+    samples_per_width: float = 4.0,
+    margin: float = CELL_MARGIN,
+    debug: dict | None = None,
+) -> CorridorLayout:
+    """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
+    its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
+    [60° + margin, 120° − margin] (original polygon corners below 60° are kept as they are).
+
+    Raises:
+        ThinPartError: no admissible layout exists with the sampled rung ends (the message
+            names the stretch of the walls where the search got stuck).
+    """
+    z = np.asarray(z, dtype=np.complex128)
+    n = z.size
+    theta = np.degrees(interior_angles(z))
+    s, e = corridor_tips(z) if tips is None else tips
+    if s == e:
+        raise ThinPartError("the corridor's two tips coincide")
+    poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
+    shapely.prepare(poly)
+    boundary = poly.exterior
+    shapely.prepare(boundary)
+    diam = float(np.ptp(z.real) + np.ptp(z.imag))
+
+    # --- walls: vertex sequences, local widths, sampled points -------------------------
+    lv = _chain(s, e, True, n)
+    rv = _chain(s, e, False, n)
+    if not lv or not rv:
+        raise ThinPartError("a corridor needs at least one vertex on each wall")
+
+    # dense samples of each wall for width estimates
+    def dense(vs):
+        pts = z[[s, *vs, e]]
+        seg = np.diff(pts)
+        k = np.maximum(np.ceil(np.abs(seg) / (np.abs(seg).mean() / 4 + 1e-300)), 1).astype(int)
+        out = [pts[i] + seg[i] * np.arange(k[i]) / k[i] for i in range(len(seg))]
+        out.append(pts[-1:])
+        return np.concatenate(out)
+
+    dl, dr = dense(lv), dense(rv)
+    tl = cKDTree(np.column_stack([dl.real, dl.imag]))
+    tr = cKDTree(np.column_stack([dr.real, dr.imag]))
+
+    # a floor for the local width: near the tips both walls meet
+    wall_d = np.concatenate(
+        [
+            tr.query(np.column_stack([z[lv].real, z[lv].imag]))[0],
+            tl.query(np.column_stack([z[rv].real, z[rv].imag]))[0],
+        ]
+    )
+    wfloor = 0.25 * float(np.median(wall_d))
+    samples: list[complex] = []
+    sample_edge: list[int] = []
+
+    def build(vs: list[int], forward: bool, other: cKDTree, other_pts: np.ndarray) -> _Chain:
+        seq = np.asarray([s, *vs, e])
+        P = z[seq]
+        seg = np.diff(P)
+        seglen = np.abs(seg)
+        cum = np.concatenate([[0.0], np.cumsum(seglen)])
+        # uniform samples strictly inside every edge, ~ samples_per_width per local width
+        q = np.concatenate([P[:-1], P[1:], 0.5 * (P[:-1] + P[1:])])
+        wq = other.query(np.column_stack([q.real, q.imag]))[0].reshape(3, -1).min(axis=0)
+        w = np.maximum(wq, wfloor)
+        k = np.clip(np.ceil(seglen * samples_per_width / w), 1, 400).astype(np.int64)
+        cnt = k - 1
+        ei = np.repeat(np.arange(seg.size), cnt)
+        jj = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
+        sig_u = cum[ei] + seglen[ei] * jj / k[ei]
+        # where rays from the opposite wall's vertices (along their angle bisectors, and
+        # turned by ±15°, ±30°) first meet this wall
+        line = shapely.LineString(np.column_stack([P.real, P.imag]))
+        foot = _ray_hits(other_pts, boundary, line, diam)
+        sig = np.concatenate([sig_u, foot])
+        tol = 1e-6 * float(np.median(w))
+        sig = np.sort(sig[(sig > tol) & (sig < cum[-1] - tol)])
+        # drop samples on top of a vertex or of each other
+        vs_sig = cum[1:-1]
+        near_v = np.zeros(sig.size, dtype=bool)
+        if vs_sig.size:
+            j = np.searchsorted(vs_sig, sig)
+            lo = np.abs(sig - vs_sig[np.maximum(j - 1, 0)])
+            hi = np.abs(vs_sig[np.minimum(j, vs_sig.size - 1)] - sig)
+            near_v = np.minimum(lo, hi) < tol
+        sig = sig[~near_v]
+        if sig.size:
+            sig = sig[np.concatenate([[True], np.diff(sig) > tol])]
+        se = np.clip(np.searchsorted(cum, sig, side="right") - 1, 0, seg.size - 1)
+        spos = P[se] + (sig - cum[se]) / seglen[se] * seg[se]
+        unit = seg / seglen
+        # merge vertices (interior of the chain) and samples by arc length
+        all_sig = np.concatenate([vs_sig, sig])
+        order = np.argsort(all_sig, kind="stable")
+        nv = vs_sig.size
+        isv = np.concatenate([np.ones(nv, bool), np.zeros(sig.size, bool)])[order]
+        pos = np.concatenate([P[1:-1], spos])[order]
+        pedge = seq[se] if forward else seq[se + 1]  # polygon edge (i, i + 1) of a sample
+        gid = np.concatenate([seq[1:-1], n + len(samples) + np.arange(sig.size)])[order]
+        samples.extend(spos.tolist())
+        sample_edge.extend(pedge.tolist())
+        th = np.concatenate([theta[seq[1:-1]], np.full(sig.size, 180.0)])[order]
+        nxt = np.concatenate([unit[1:], unit[se]])[order]
+        normal = nxt * (1j if forward else -1j)  # into the corridor
+        width = _facing_distance(pos, normal, boundary, wfloor, diam)
+        return _Chain(pos, gid, isv, th, nxt, all_sig[order], np.cumsum(isv), width)
+
+    bis = np.exp(1j * np.radians(theta) / 2) * (np.roll(z, -1) - z)
+    bis /= np.abs(bis)
+    L = build(lv, True, tr, (z[rv], bis[rv]))
+    R = build(rv, False, tl, (z[lv], bis[lv]))
+    # at R points the direction toward e runs clockwise along the polygon
+    coarse = np.concatenate([z, np.asarray(samples, dtype=np.complex128)])
+    edge_of = np.concatenate([np.full(n, -1), np.asarray(sample_edge, dtype=np.int64)])
+
+    # --- candidate rungs ----------------------------------------------------------------
+    okL = (~L.is_vertex) | (L.theta > 120.0 + margin)
+    okR = (~R.is_vertex) | (R.theta > 120.0 + margin)
+    ia = np.flatnonzero(okL)
+    reach = 3.0 * L.width[ia] + 1e-300
+    rxy = np.column_stack([R.pos.real, R.pos.imag])
+    rtree = cKDTree(rxy)
+    cand = rtree.query_ball_point(np.column_stack([L.pos[ia].real, L.pos[ia].imag]), reach)
+    pa = np.repeat(ia, [len(c) for c in cand])
+    pb = np.fromiter((j for c in cand for j in c), dtype=np.int64, count=pa.size)
+    keep = okR[pb]
+    pa, pb = pa[keep], pb[keep]
+    za, zb = L.pos[pa], R.pos[pb]
+    d = zb - za
+    # angle at a after the rung (between the wall toward e and the rung), and before it
+    aft_a = _ccw_angle(L.nxt[pa], d)
+    bef_a = L.theta[pa] - aft_a
+    # at b: from the rung (b -> a) counter-clockwise to the wall toward e
+    aft_b = _ccw_angle(-d, R.nxt[pb])
+    bef_b = R.theta[pb] - aft_b
+    lo = 60.0 + margin
+    keep = (aft_a >= lo) & (bef_a >= lo) & (aft_b >= lo) & (bef_b >= lo)
+    pa, pb, za, zb = pa[keep], pb[keep], za[keep], zb[keep]
+    # inside the polygon (the open segment)
+    eps = 1e-9
+    p0, p1 = za + eps * (zb - za), zb - eps * (zb - za)
+    lines = shapely.linestrings(
+        np.stack([np.column_stack([p0.real, p0.imag]), np.column_stack([p1.real, p1.imag])], 1)
+    )
+    inside = shapely.contains_properly(poly, lines)
+    pa, pb = pa[inside], pb[inside]
+    if pa.size == 0:
+        raise ThinPartError("no straight crosscut fits between the corridor's walls")
+    nr = pa.size
+    nR = R.pos.size
+    rkey = pa * nR + pb
+    order = np.argsort(rkey)
+    rkey_sorted = rkey[order]
+
+    def rung_id(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        k = a * nR + b
+        i = np.searchsorted(rkey_sorted, k)
+        i = np.minimum(i, nr - 1)
+        hit = rkey_sorted[i] == k
+        return np.where(hit, order[i], -1)
+
+    # --- windows of the next rung end along each wall -------------------------------------
+    def windows(C: _Chain) -> tuple[np.ndarray, np.ndarray]:
+        """For every point i: the range [i, hi_i] of points a next rung end may use: up to the
+        second polygon vertex after i and within ~2 local widths of arc length."""
+        m = C.pos.size
+        vidx = np.flatnonzero(C.is_vertex)
+        # index of the 2nd vertex strictly after i (or m - 1)
+        pos_after = np.searchsorted(vidx, np.arange(m), side="right")
+        after2 = vidx[np.minimum(pos_after + 1, vidx.size - 1)]
+        second = np.where(pos_after + 1 < vidx.size, after2, m - 1)
+        limit = np.searchsorted(C.sigma, C.sigma + 2.5 * C.width, side="right") - 1
+        nextv = np.where(pos_after < vidx.size, vidx[np.minimum(pos_after, vidx.size - 1)], m - 1)
+        hi = np.minimum(second, np.maximum(limit, nextv))
+        return hi, nextv
+
+    hiL, nextvL = windows(L)
+    hiR, nextvR = windows(R)
+
+    # --- arcs between rungs: all (a', b') in the windows of (a, b) -------------------------
+    la = hiL[pa] - pa + 1
+    lb = hiR[pb] - pb + 1
+    cnt = la * lb
+    src = np.repeat(np.arange(nr), cnt)
+    off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    a2 = pa[src] + off // lb[src]
+    b2 = pb[src] + off % lb[src]
+    a1, b1 = pa[src], pb[src]
+    fan_a = a2 == a1
+    fan_b = b2 == b1
+    nl = np.where(a2 > a1, L.vrank[np.maximum(a2 - 1, 0)] - L.vrank[a1], 0)
+    nrr = np.where(b2 > b1, R.vrank[np.maximum(b2 - 1, 0)] - R.vrank[b1], 0)
+    valid = ~(fan_a & fan_b)
+    valid &= np.where(fan_a, (nrr == 1), True)
+    valid &= np.where(fan_b, (nl == 1), True)
+    valid &= np.where(~fan_a & ~fan_b, (nl == 0) & (nrr == 0), True)
+    dst = rung_id(a2, b2)
+    valid &= dst >= 0
+    src, dst, a1, b1, a2, b2 = (x[valid] for x in (src, dst, a1, b1, a2, b2))
+    fan_a, fan_b = a2 == a1, b2 == b1
+    # the 4 corners (counter-clockwise) and their angles
+    q0 = L.pos[a1]
+    q1 = np.where(fan_a, R.pos[b2], np.where(fan_b, L.pos[nextvL[a1]], L.pos[a2]))
+    q2 = np.where(fan_a, R.pos[nextvR[b1]], np.where(fan_b, L.pos[a2], R.pos[b2]))
+    q3 = R.pos[b1]
+    cost, ok = _cell_cost(q0, q1, q2, q3, margin, None)
+    arcs = [(src[ok], dst[ok], cost[ok])]
+
+    # --- cap cells at both ends --------------------------------------------------------------
+    # start: s, [one vertex between s and a on L, or between s and b on R], a, b
+    cap_src, cap_dst, cap_cost = [], [], []
+    for end in (0, 1):
+        if end == 0:
+            nl0 = L.vrank[pa] - L.is_vertex[pa]  # vertices strictly before a
+            nr0 = R.vrank[pb] - R.is_vertex[pb]
+            first_l = np.flatnonzero(L.is_vertex)[:1]
+            first_r = np.flatnonzero(R.is_vertex)[:1]
+            sel = (nl0 + nr0) == 1
+            tipz = z[s]
+            # cycle s, (l), a, b, (r)
+            c_l = (nl0 == 1) & sel
+            q0 = np.full(pa.size, tipz)
+            q1 = np.where(c_l, L.pos[first_l[0]] if first_l.size else 0, L.pos[pa])
+            q2 = np.where(c_l, L.pos[pa], R.pos[pb])
+            q3 = np.where(c_l, R.pos[pb], R.pos[first_r[0]] if first_r.size else 0)
+        else:
+            nlt = L.vrank[-1] - L.vrank[pa]  # vertices strictly after a
+            nrt = R.vrank[-1] - R.vrank[pb]
+            last_l = np.flatnonzero(L.is_vertex)[-1:]
+            last_r = np.flatnonzero(R.is_vertex)[-1:]
+            sel = (nlt + nrt) == 1
+            tipz = z[e]
+            c_l = (nlt == 1) & sel
+            # cycle a, (l), e, (r), b
+            q0 = L.pos[pa]
+            q1 = np.where(c_l, L.pos[last_l[0]] if last_l.size else 0, np.full(pa.size, tipz))
+            q2 = np.where(c_l, np.full(pa.size, tipz), R.pos[last_r[0]] if last_r.size else 0)
+            q3 = R.pos[pb]
+        cost, ok = _cell_cost(q0, q1, q2, q3, margin, None)
+        ok &= sel
+        idx = np.flatnonzero(ok)
+        if end == 0:
+            cap_src.append(np.full(idx.size, nr))
+            cap_dst.append(idx)
+        else:
+            cap_src.append(idx)
+            cap_dst.append(np.full(idx.size, nr + 1))
+        cap_cost.append(cost[ok])
+    arcs.append((np.concatenate(cap_src), np.concatenate(cap_dst), np.concatenate(cap_cost)))
+
+    S = np.concatenate([x[0] for x in arcs])
+    D = np.concatenate([x[1] for x in arcs])
+    W = np.concatenate([x[2] for x in arcs])
+    g = coo_matrix((W, (S, D)), shape=(nr + 2, nr + 2)).tocsr()
+    dist, pred = dijkstra(g, indices=nr, return_predecessors=True)
+    if debug is not None:
+        debug.update(L=L, R=R, pa=pa, pb=pb, dist=dist, S=S, D=D)
+    if not np.isfinite(dist[nr + 1]):
+        reached = np.flatnonzero(np.isfinite(dist[:nr]))
+        if reached.size:
+            far = reached[np.argmax(L.sigma[pa[reached]] + R.sigma[pb[reached]])]
+            where = f"near ({L.pos[pa[far]].real:.6g}, {L.pos[pa[far]].imag:.6g})"
+        else:
+            where = f"at the end near ({z[s].real:.6g}, {z[s].imag:.6g})"
+        raise ThinPartError(
+            f"no layout of straight cells with corners in [60°, 120°] continues {where}"
+        )
+    path = []
+    k = pred[nr + 1]
+    while k != nr:
+        path.append(int(k))
+        k = pred[k]
+    path = path[::-1]
+
+    # --- the cells of the path ---------------------------------------------------------------
+    cells: list[list[int]] = []
+    kind: list[str] = []
+    gl = lambda C, i: int(C.gid[i])  # noqa: E731
+    first_a, first_b = pa[path[0]], pb[path[0]]
+    # start cap
+    ring = [s] + [int(v) for v in L.gid[:first_a][L.is_vertex[:first_a]]] + [gl(L, first_a)]
+    ring += [gl(R, first_b), *[int(v) for v in R.gid[:first_b][R.is_vertex[:first_b]]][::-1]]
+    cells.append(ring)
+    kind.append("cap")
+    for r0, r1 in itertools.pairwise(path):
+        a, b, a_, b_ = pa[r0], pb[r0], pa[r1], pb[r1]
+        if a_ == a:
+            cells.append([gl(L, a), gl(R, b_), gl(R, nextvR[b]), gl(R, b)])
+            kind.append("fan")
+        elif b_ == b:
+            cells.append([gl(L, a), gl(L, nextvL[a]), gl(L, a_), gl(R, b)])
+            kind.append("fan")
+        else:
+            cells.append([gl(L, a), gl(L, a_), gl(R, b_), gl(R, b)])
+            kind.append("ladder")
+    la_, lb_ = pa[path[-1]], pb[path[-1]]
+    ring = [gl(L, la_)] + [int(v) for v in L.gid[la_ + 1 :][L.is_vertex[la_ + 1 :]]] + [e]
+    ring += [*[int(v) for v in R.gid[lb_ + 1 :][R.is_vertex[lb_ + 1 :]]][::-1], gl(R, lb_)]
+    cells.append(ring)
+    kind.append("cap")
+    cell_arr = np.asarray(cells, dtype=np.int64)
+    used = np.unique(cell_arr)
+    # keep coarse vertices: all polygon vertices, then the used samples renumbered
+    samp_used = used[used >= n]
+    remap = np.full(coarse.size, -1, dtype=np.int64)
+    remap[:n] = np.arange(n)
+    remap[samp_used] = n + np.arange(samp_used.size)
+    verts = np.concatenate([z, coarse[samp_used]])
+    rung_arr = np.asarray([[gl(L, pa[r]), gl(R, pb[r])] for r in path], dtype=np.int64)
+    return CorridorLayout(
+        vertices=verts,
+        cells=remap[cell_arr],
+        kind=tuple(kind),
+        rungs=remap[rung_arr],
+        tips=(int(s), int(e)),
+        edge_of=np.concatenate([np.full(n, -1), edge_of[samp_used]]),
+    )
+
+
+def _ray_hits(origin_dir, boundary, line, reach: float) -> np.ndarray:
+    """Arc-length positions on ``line`` (a wall chain) of the first boundary points hit by rays
+    from the given points along the given directions turned by 0°, ±15°, ±30°."""
+    pts, d = origin_dir
+    if pts.size == 0:
+        return np.zeros(0)
+    turns = np.exp(1j * np.radians([0.0, 15.0, -15.0, 30.0, -30.0]))
+    o = np.repeat(pts, turns.size)
+    u = (d[:, None] * turns[None, :]).ravel()
+    eps = 1e-9 * reach
+    p0, p1 = o + eps * u, o + reach * u
+    rays = shapely.linestrings(
+        np.stack([np.column_stack([p0.real, p0.imag]), np.column_stack([p1.real, p1.imag])], 1)
+    )
+    hit = shapely.intersection(rays, boundary)
+    first = shapely.shortest_line(shapely.points(p0.real, p0.imag), hit)
+    ok = ~shapely.is_empty(hit)
+    q = shapely.get_coordinates(shapely.get_point(first[ok], 1))
+    qp = shapely.points(q[:, 0], q[:, 1])
+    on = shapely.distance(qp, line) < 1e-9 * reach
+    return np.asarray(shapely.line_locate_point(line, qp[on]), dtype=float)
+
+
+def _facing_distance(pos, normal, boundary, floor: float, reach: float) -> np.ndarray:
+    """Width of the corridor at each wall point: the distance along the inward normal to the
+    first point of the polygon's boundary (a ray cast), at least ``floor``."""
+    eps = 1e-9 * reach
+    p0 = pos + eps * normal
+    p1 = pos + reach * normal
+    rays = shapely.linestrings(
+        np.stack([np.column_stack([p0.real, p0.imag]), np.column_stack([p1.real, p1.imag])], 1)
+    )
+    hit = shapely.intersection(rays, boundary)
+    d = shapely.distance(shapely.points(pos.real, pos.imag), hit)
+    d = np.where(np.isfinite(d) & ~shapely.is_empty(hit), d, reach)
+    return np.maximum(d, floor)
+
+
+def _cell_cost(q0, q1, q2, q3, margin, width):
+    """Cost of the quadrilateral cells (q0, q1, q2, q3) and whether each is admissible (convex,
+    counter-clockwise, corners in [60° + margin, 120° − margin])."""
+    c = np.stack([q0, q1, q2, q3], axis=-1)
+    e = np.roll(c, -1, axis=-1) - c
+    ang = _ccw_angle(e, -np.roll(e, 1, axis=-1))
+    ok = np.all((ang >= 60.0 + margin) & (ang <= 120.0 - margin), axis=-1)
+    ok &= np.abs(ang.sum(axis=-1) - 360.0) < 1e-6
+    side = np.abs(e)
+    dev = np.abs(ang - 90.0).max(axis=-1) / 30.0
+    ratio = side.min(axis=-1) / np.maximum(side.max(axis=-1), 1e-300)
+    cost = 1.0 + 2.0 * dev**2 + 0.5 * np.maximum(0.0, -np.log(np.maximum(ratio, 1e-12) / 0.2))
+    return cost, ok
+
+
+def mesh_corridor(
+    z: np.ndarray,
+    *,
+    across: int = 4,
+    layout: CorridorLayout | None = None,
+) -> tuple[np.ndarray, np.ndarray, CorridorLayout]:
+    """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`) refined by
+    bilinear grids (:func:`quadmesh.cells.refine_layout`) with about ``across`` quads across
+    the corridor and roughly square quads along it.
+
+    Returns ``(points, quads, layout)``: complex points whose first ``n`` are the polygon's
+    vertices, counter-clockwise quads, and the layout. Every new angle lies in [60°, 120°]
+    because every cell is convex with corners in [60°, 120°] (bilinear grid argument).
+    """
+    from ..cells import refine_layout
+
+    z = np.asarray(z, dtype=np.complex128)
+    lay = ladder_layout(z) if layout is None else layout
+    rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
+    size = float(np.median(rung_len)) / max(int(across), 1) if rung_len.size else None
+    theta = np.degrees(interior_angles(z))
+    tips = np.flatnonzero(theta < 60.0)
+    try:
+        pts, quads, _ = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
+    except ValueError as exc:
+        raise ThinPartError(f"corridor cells: {exc}") from exc
+    return pts, quads, lay
+
+
+#: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
+#: meshed as a corridor when it can be: well above the ~5e-15 the disk construction resolves
+#: in extended precision, so that no conformal map is asked to work near its limit.
+CORRIDOR_GAP = 1e-10
+
+
+@dataclass(frozen=True)
+class CorridorMesh:
+    """The mesh of a corridor: ``vertices`` (complex; the first ``n`` are the polygon's),
+    counter-clockwise ``quads``, per quad the ``cell`` of the layout it refines, and the
+    ``layout`` itself (cells, rungs, tips)."""
+
+    vertices: np.ndarray
+    quads: np.ndarray
+    cell: np.ndarray
+    layout: CorridorLayout
+
+    @property
+    def kind(self) -> np.ndarray:
+        """Region kind per quad (all corridor cells)."""
+        return np.zeros(len(self.quads), dtype=np.int8)
+
+
+def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
+    """The corridor mesh of a polygon that the decomposition leaves as one crowded thick piece.
+
+    Returns ``(mesh, "")`` when the polygon is one thick piece without channels whose estimated
+    smallest prevertex gap is below :data:`CORRIDOR_GAP` and a ladder layout exists; otherwise
+    ``(None, reason)`` with the reason the corridor route was not taken ("" when the polygon is
+    not a crowded single piece).
+    """
+    from ..cells import refine_layout
+    from ..decompose import _min_gap
+
+    if len(dec.thick) != 1 or dec.channels:
+        return None, ""
+    piece = dec.thick[0]
+    gap = piece.min_gap if np.isfinite(piece.min_gap) else _min_gap(piece.z, piece.center)
+    if not (gap < CORRIDOR_GAP):
+        return None, ""
+    z = np.asarray(dec.polygon.z, dtype=np.complex128)
+    try:
+        lay = ladder_layout(z)
+        rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
+        size = float(np.median(rung_len)) / across
+        tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
+        pts, quads, info = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
+    except (ThinPartError, ValueError) as exc:
+        return None, str(exc.args[0]) if exc.args else type(exc).__name__
+    return CorridorMesh(pts, quads, np.asarray(info.quad_cell), lay), ""

@@ -1,0 +1,116 @@
+"""Corridors (thin parts whose walls are chains of short edges) meshed by ladders of straight
+cells, checked from the outside: conformity, boundary, area and every new angle computed here in
+plain float64 from the returned coordinates."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+from quadmesh import mesh_polygon
+from quadmesh.cells import cell_is_admissible
+from quadmesh.examples import load_example
+from quadmesh.polygon import validate_polygon
+from quadmesh.thin.corridor import ladder_layout
+
+
+def _stroke(centre: np.ndarray, width: float) -> np.ndarray:
+    """A flat-capped pen stroke along a centreline (bevelled joins), counter-clockwise."""
+    g = shapely.LineString(centre).buffer(width / 2, cap_style="flat", join_style="round")
+    g = shapely.geometry.polygon.orient(g, 1.0)
+    return np.asarray(g.exterior.coords)[:-1]
+
+
+def _s_centre(n: int = 60) -> np.ndarray:
+    t = np.linspace(0.0, 1.0, n)
+    return np.column_stack([3.0 * np.sin(2 * np.pi * t), 10.0 * t])
+
+
+def _spiral_centre(turns: float = 2.5, n: int = 200) -> np.ndarray:
+    t = np.linspace(0.5, turns, n) * 2 * np.pi
+    r = 1.0 + 2.0 * t / (2 * np.pi)
+    return np.column_stack([r * np.cos(t), r * np.sin(t)])
+
+
+def independent_check(poly_xy: np.ndarray, v: np.ndarray, q: np.ndarray, tol: float = 1e-9):
+    """Plain-float64 check of a quad mesh of a CCW polygon: returns the new-angle range.
+
+    Each interior edge in exactly two quads with opposite orientation; unpaired edges exactly
+    subdivide the polygon's sides; quads convex and counter-clockwise; areas sum to the
+    polygon's; every angle not at a polygon corner in [60°, 120°] within ``tol`` degrees."""
+    z = v[:, 0] + 1j * v[:, 1]
+    c = z[q] - z[q][:, :1]  # relative to each quad's first vertex
+    e = np.roll(c, -1, axis=1) - c
+    cross = (np.conj(e) * np.roll(e, -1, axis=1)).imag
+    assert np.all(cross > 0), "a quad is not strictly convex and counter-clockwise"
+    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
+    ang = np.where(ang < 0, ang + 360, ang)
+    pz = poly_xy[:, 0] + 1j * poly_xy[:, 1]
+    corner = np.isin(z[q], pz)
+    new = ang[~corner]
+    assert new.min() >= 60 - tol and new.max() <= 120 + tol, (new.min(), new.max())
+    # conformity
+    he = np.stack([q, np.roll(q, -1, axis=1)], axis=-1).reshape(-1, 2)
+    fwd = {tuple(x) for x in he.tolist()}
+    assert len(fwd) == len(he), "a directed edge is used twice"
+    boundary = [tuple(x) for x in he.tolist() if (x[1], x[0]) not in fwd]
+    # every boundary edge lies on a polygon side, and they cover the perimeter exactly
+    a, b = z[[x[0] for x in boundary]], z[[x[1] for x in boundary]]
+    side = shapely.LineString(np.vstack([poly_xy, poly_xy[:1]]))
+    mids = shapely.points(((a + b) / 2).real, ((a + b) / 2).imag)
+    diam = np.ptp(pz.real) + np.ptp(pz.imag)
+    assert np.all(shapely.distance(mids, side) < 1e-9 * diam)
+    perim = np.abs(np.diff(np.r_[pz, pz[:1]])).sum()
+    assert np.abs(b - a).sum() == pytest.approx(perim, rel=1e-9)
+    area = 0.5 * np.sum((np.conj(c) * np.roll(c, -1, axis=1)).imag)
+    poly_area = shapely.Polygon(poly_xy).area
+    assert area == pytest.approx(poly_area, rel=1e-9)
+    return float(new.min()), float(new.max())
+
+
+@pytest.mark.parametrize(
+    "name, centre, width",
+    [("S", _s_centre(), 1.0), ("spiral", _spiral_centre(), 0.8), ("S thin", _s_centre(), 0.25)],
+)
+def test_flat_capped_strokes_mesh_as_corridors(name, centre, width):
+    poly = _stroke(centre, width)
+    r = mesh_polygon(poly)
+    assert [t.kind for t in r.thin] == ["corridor"]
+    assert r.pieces == ()  # no conformal map was needed
+    v, q = r.mesh.vertices, r.mesh.quads
+    lo, hi = independent_check(validate_polygon(poly).vertices, v, q)
+    assert 60 <= lo and hi <= 120
+    assert len(q) <= 20 * len(poly), len(q) / len(poly)
+
+
+def test_glyph_s_is_a_corridor():
+    """The bundled letter S crowds a disk map to 1.4e-13; as a corridor it needs no map and
+    a few quads per polygon vertex (the disk construction spent ~985)."""
+    poly = load_example("glyph_s")
+    r = mesh_polygon(poly)
+    assert [t.kind for t in r.thin] == ["corridor"]
+    independent_check(validate_polygon(poly).vertices, r.mesh.vertices, r.mesh.quads)
+    assert len(r.mesh.quads) <= 20 * len(poly)
+
+
+def _ring(ni: int, no: int) -> np.ndarray:
+    ti, to = np.linspace(0, np.pi / 2, ni), np.linspace(0, np.pi / 2, no)
+    return np.concatenate([2 * np.exp(1j * to), np.exp(1j * ti)[::-1]])
+
+
+@pytest.mark.parametrize("ni, no", [(10, 10), (10, 14), (20, 10), (60, 20), (7, 40)])
+def test_ladder_cells_are_admissible_on_curved_walls(ni, no):
+    """Walls with unrelated vertex spacings (reflex on one side, convex on the other): every
+    cell of the ladder is a convex quadrilateral with corners in [61°, 119°], and every polygon
+    vertex is a cell vertex."""
+    lay = ladder_layout(_ring(ni, no))
+    corners = lay.vertices[lay.cells]
+    assert np.all(cell_is_admissible(corners, margin_deg=1.0 - 1e-9))
+    assert set(range(ni + no)) <= set(lay.cells.ravel().tolist())
+
+
+def test_ordinary_polygons_keep_the_paper_construction():
+    """A polygon that does not crowd (an L-shape) is meshed by the disk construction."""
+    r = mesh_polygon(load_example("l_shape"))
+    assert len(r.pieces) == 1 and all(t.kind != "corridor" for t in r.thin)
