@@ -278,7 +278,12 @@ def run_families(
     families = FAMILIES if families is None else families
     rows: list[dict] = []
     for fam, make in families.items():
-        for m in _subset(make(seed), limit):
+        try:
+            members = make(seed)
+        except ImportError as exc:
+            print(f"family {fam} skipped: {exc} (pip install 'quadmesh[families]')")
+            continue
+        for m in _subset(members, limit):
             met = polygon_metrics(m.vertices)
             rows.append(
                 {
