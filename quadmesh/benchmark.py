@@ -359,21 +359,31 @@ def format_family_table(summary: list[dict]) -> str:
     def num(x, fmt):
         return "-" if x is None else format(x, fmt)
 
-    head = (
-        f"{'family':12s} {'meshed':>9} {'n med/max':>11} {'quads/n med/max':>16} "
-        f"{'time s med/max':>15} {'edge/width med/min':>19} {'L/w med/max':>12}"
-    )
-    lines = [head]
+    def pair(a: str, b: str) -> str:
+        return f"{a}/{b}"
+
+    cols = [
+        ("meshed", 8),
+        ("n med/max", 11),
+        ("quads/n med/max", 16),
+        ("time s med/max", 15),
+        ("edge/width med/min", 19),
+        ("L/w med/max", 12),
+    ]
+    lines = [f"{'family':12s} " + " ".join(f"{c:>{w}}" for c, w in cols)]
     for s in summary:
-        tmax = num(s["time_max"], ".1f") + ("+" if s["timeouts"] else "")
+        cells = [
+            pair(str(s["meshed"]), str(s["total"])),
+            pair(f"{s['n_median']:.0f}", str(s["n_max"])),
+            pair(num(s["quads_per_vertex_median"], ".0f"), num(s["quads_per_vertex_max"], ".0f")),
+            pair(
+                f"{s['time_median']:.1f}", f"{s['time_max']:.1f}" + ("+" if s["timeouts"] else "")
+            ),
+            pair(f"{s['edge_over_width_median']:.3f}", f"{s['edge_over_width_min']:.4f}"),
+            pair(f"{s['aspect_median']:.0f}", f"{s['aspect_max']:.0f}"),
+        ]
         lines.append(
-            f"{s['family']:12s} {str(s['meshed']) + '/' + str(s['total']):>9} "
-            f"{s['n_median']:>5.0f}/{s['n_max']:<5d} "
-            f"{num(s['quads_per_vertex_median'], '7.0f')}/"
-            f"{num(s['quads_per_vertex_max'], '<8.0f')} "
-            f"{s['time_median']:7.1f}/{tmax:<7s} "
-            f"{s['edge_over_width_median']:9.3f}/{s['edge_over_width_min']:<9.4f} "
-            f"{s['aspect_median']:5.0f}/{s['aspect_max']:<6.0f}"
+            f"{s['family']:12s} " + " ".join(f"{c:>{w}}" for c, (_, w) in zip(cells, cols))
         )
     lines.append("")
     lines.append(
