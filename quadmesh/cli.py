@@ -88,7 +88,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_info)
 
     sub.add_parser(
-        "bench", help="benchmark: time per stage and quads against n (quadmesh bench --help)"
+        "bench",
+        help="benchmark: time per stage and quads against n; --families: the corridor "
+        "test families (quadmesh bench --help)",
     )
 
     p = sub.add_parser("disk-demo", help="render the disk construction of Lemma 2.2")
