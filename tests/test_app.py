@@ -565,16 +565,15 @@ def test_views_render_only_on_change(main_window, qtbot):
     for name, v in (("plane", win.plane), ("disk", win.disk)):
         assert not v.plotter.render_timer.isActive()
         v.plotter.render_signal.connect(lambda n=name: renders.__setitem__(n, renders[n] + 1))
-    qtbot.wait(1500)
+    qtbot.wait(1200)  # an auto-update timer would have fired at least once
     assert renders == {"plane": 0, "disk": 0}
     load_l_shape(win)
     assert renders["plane"] >= 1
     n0 = renders["disk"]
     press(qtbot, win.reset_disk_btn)
     assert renders["disk"] > n0
-    qtbot.wait(1200)
     n = dict(renders)
-    qtbot.wait(1200)
+    qtbot.wait(1100)
     assert renders == n
 
 
@@ -688,6 +687,14 @@ def test_scripted_run_writes_screenshot(main_window, tmp_path):
         == 0
     )
     assert pixel_variance(png) > 100.0
+    # a mesh file opens as a mesh in the scripted run too
+    from quadmesh.io import write_mesh
+    from tests.helpers import lshape_mesh
+
+    write_mesh(tmp_path / "m.json", lshape_mesh())
+    png2 = tmp_path / "mesh.png"
+    assert run(["--open", str(tmp_path / "m.json"), "--screenshot", str(png2), "--quit"]) == 0
+    assert pixel_variance(png2) > 100.0
     assert run(["--open", str(tmp_path / "missing.json"), "--quit"]) == 1
     assert run(["--open", str(poly), "--layers", "nonsense", "--quit"]) == 1
 
