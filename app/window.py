@@ -711,7 +711,10 @@ class MainWindow(QMainWindow):
         if self.runner.busy:
             return False
         if not self.editor.closed or self.editor.problem():
-            self._show_error(self.editor.problem() or "close the polygon first")
+            why = self.editor.problem() or "close the polygon first"
+            if not self.editor.points and self.loaded_mesh is not None:
+                why = "the mesh on screen was opened from a file; open or draw a polygon to mesh"
+            self._show_error(why)
             return False
         try:
             options = self.mesh_options()
