@@ -374,8 +374,8 @@ class ThickPiece:
         min_gap: estimate of the smallest prevertex gap (radians) of the piece's disk map
             with f(0) = ``center``: ``2π·min_k ω(center, side_k)``.  Estimated only where the
             crowding refinement could split the piece further (it held a relaxed channel
-            candidate at some overlap depth); NaN otherwise, when the refinement is off (``crowding_gap = 0``) or
-            when the estimate failed.
+            candidate at some overlap depth); NaN otherwise, when the refinement is off
+            (``crowding_gap = 0``) or when the estimate failed.
     """
 
     index: int
