@@ -100,7 +100,8 @@ class MeshOptions:
         def integer(name: str, low: int) -> int:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, numbers.Real) or v != int(v) or v < low:
-                raise ValueError(f"{name} must be an integer of at least {low}, got {v!r}")
+                rule = "a positive integer" if low == 1 else f"an integer of at least {low}"
+                raise ValueError(f"{name} must be {rule}, got {v!r}")
             return int(v)
 
         integer("n", 1)
