@@ -29,7 +29,6 @@ from .errors import (
     Cancelled,
     ConformalMapError,
     DiskConstructionError,
-    MeshVerificationError,
     ThinPartError,
 )
 from .geometry import quad_angles_deg
@@ -818,7 +817,8 @@ def mesh_polygon(
         MeshVerificationError: the assembled mesh failed verification (never returned).
     """
     from .decompose import DecomposeOptions, decompose
-    from .mesh import QuadMesh
+    from .mesh import finalize_mesh
+    from .refine import refine_quads
 
     options = options or MeshOptions()
     timings: dict[str, float] = {}
@@ -957,24 +957,15 @@ def mesh_polygon(
 
     report("verify", 0.9)
     t0 = time.perf_counter()
-    z = asm.vertices() + origin
+    z = asm.vertices()  # relative to the working origin
     quads, source = asm.all_quads()
-    mesh = QuadMesh(np.column_stack([z.real, z.imag]), quads)
-    verification = mesh.verify(poly, angle_tol=ANGLE_TOL)
+    if options.refine > 1:
+        z, quads, parent = refine_quads(z, quads, options.refine, origin=origin)
+        source = source[parent]
+    # verified as it will be stored: absolute coordinates, or relative to origin when far
+    # from (0, 0) float64 cannot hold the angles (MeshResult.mesh_origin)
+    mesh, mesh_origin, verification = finalize_mesh(poly, z, quads, origin)
     timings["verify"] = time.perf_counter() - t0
-    if not verification.ok:
-        far = ""
-        if origin:
-            # the stages ran at the working origin; the vertices are stored far from 0
-            res = np.finfo(float).eps * abs(origin) / poly.diameter
-            far = (
-                f" (the polygon lies {abs(origin) / poly.diameter:.3g} diameters from (0, 0), "
-                f"where float64 coordinates resolve only {res:.1e} of its diameter: translate "
-                "it towards the origin)"
-            )
-        raise MeshVerificationError(
-            "the assembled mesh failed verification: " + "; ".join(verification.problems[:5]) + far
-        )
     quality = verification.quality
     report("done", 1.0)
     return MeshResult(
@@ -989,4 +980,5 @@ def mesh_polygon(
         timings=timings,
         quad_source=source,
         origin=origin,
+        mesh_origin=mesh_origin,
     )
