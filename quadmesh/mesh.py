@@ -68,10 +68,10 @@ _PREV = np.array([3, 0, 1, 2])
 
 
 def _fmt_pt(p: complex, origin: complex = 0j) -> str:
-    """Readable point; ``origin`` is added first (points of a mesh stored relative to it),
-    with enough digits to tell points apart far from (0, 0)."""
-    if origin:
-        p = complex(p) + origin
+    """Readable point; ``origin`` is added first (points of a mesh stored relative to it).
+    Far from (0, 0) (a coordinate of 1e4 or more) with 15 digits, so that points tell apart."""
+    p = complex(p) + origin
+    if max(abs(p.real), abs(p.imag)) >= 1e4:
         return f"({p.real:.15g}, {p.imag:.15g})"
     return f"({p.real:.6g}, {p.imag:.6g})"
 
