@@ -1025,7 +1025,10 @@ class MainWindow(QMainWindow):
         mesh = self.shown_mesh()
         if mesh is None:
             raise QuadmeshError("there is no mesh to export; mesh the polygon first", stage="io")
-        write_mesh(path, mesh)
+        origin = 0j
+        if self.result is not None and mesh is self.result.mesh:
+            origin = complex(getattr(self.result, "mesh_origin", 0j) or 0j)
+        write_mesh(path, mesh, origin=origin)
 
     def save_screenshot(self, path: str | Path) -> None:
         """Save a PNG of the whole window (views included)."""

@@ -24,12 +24,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .errors import Cancelled, DiskConstructionError, MeshVerificationError, ThinPartError
+from .errors import Cancelled, DiskConstructionError, ThinPartError
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
 from .result import MeshOptions, MeshResult
 from .thick import (
-    ANGLE_TOL,
     PieceWork,
     collect_angle_faults,
     disk_and_image,
@@ -116,7 +115,8 @@ def mesh_polygon(
         MeshVerificationError: the assembled mesh failed verification (never returned).
     """
     from .decompose import DecomposeOptions, decompose
-    from .mesh import QuadMesh
+    from .mesh import finalize_mesh
+    from .refine import refine_quads
 
     options = options or MeshOptions()
     timings: dict[str, float] = {}
@@ -130,7 +130,7 @@ def mesh_polygon(
     t0 = time.perf_counter()
     poly: Polygon = validate_polygon(polygon)
     origin = _working_origin(poly)
-    work_poly = validate_polygon(poly.z - origin) if origin else poly
+    work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
     report("decompose", 0.05)
@@ -207,24 +207,15 @@ def mesh_polygon(
 
     report("verify", 0.9)
     t0 = time.perf_counter()
-    z = asm.vertices() + origin
+    z = asm.vertices()  # relative to the working origin
     quads, source = asm.all_quads()
-    mesh = QuadMesh(np.column_stack([z.real, z.imag]), quads)
-    verification = mesh.verify(poly, angle_tol=ANGLE_TOL)
+    if options.refine > 1:
+        z, quads, parent = refine_quads(z, quads, options.refine, origin=origin)
+        source = source[parent]
+    # verified as it will be stored: absolute coordinates, or relative to origin when far
+    # from (0, 0) float64 cannot hold the angles (MeshResult.mesh_origin)
+    mesh, mesh_origin, verification = finalize_mesh(poly, z, quads, origin)
     timings["verify"] = time.perf_counter() - t0
-    if not verification.ok:
-        far = ""
-        if origin:
-            # the stages ran at the working origin; the vertices are stored far from 0
-            res = np.finfo(float).eps * abs(origin) / poly.diameter
-            far = (
-                f" (the polygon lies {abs(origin) / poly.diameter:.3g} diameters from (0, 0), "
-                f"where float64 coordinates resolve only {res:.1e} of its diameter: translate "
-                "it towards the origin)"
-            )
-        raise MeshVerificationError(
-            "the assembled mesh failed verification: " + "; ".join(verification.problems[:5]) + far
-        )
     quality = verification.quality
     report("done", 1.0)
     return MeshResult(
@@ -239,4 +230,5 @@ def mesh_polygon(
         timings=timings,
         quad_source=source,
         origin=origin,
+        mesh_origin=mesh_origin,
     )

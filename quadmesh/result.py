@@ -73,6 +73,13 @@ class MeshOptions:
             pushed-forward quads that leave [60°, 120°] by a small fraction of their edges
             (:func:`quadmesh.repair.repair_angles`; topology, boundary and the crosscut
             vertices shared with thin parts are untouched). Off: the paper's remedy only.
+        refine: split every quad of the verified construction into a refine × refine grid
+            of bilinear sub-quads (:func:`quadmesh.refine.refine_quads`; 1 = off). The grid
+            points on an edge shared by two quads are made once, so the mesh stays
+            conforming, and a convex quad's bilinear sub-quads have their angles within the
+            range of its corner angles and their supplements, so [60°, 120°] survives. Not
+            available when the polygon has a corner below 60° (the quad keeping it would give
+            new angles of about that angle).
     """
 
     n: int = 2
@@ -89,6 +96,7 @@ class MeshOptions:
     adaptive: bool = True
     max_n: int = 6
     repair: bool = True
+    refine: int = 1
 
     def __post_init__(self) -> None:
         def real(name: str) -> float:
@@ -130,6 +138,8 @@ class MeshOptions:
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
         if integer("max_n", 1) < self.n:
             raise ValueError(f"max_n must be at least n = {self.n}, got {self.max_n}")
+        if integer("refine", 1) > 64:
+            raise ValueError(f"refine must be an integer in [1, 64], got {self.refine}")
 
 
 @dataclass(frozen=True)
@@ -194,5 +204,12 @@ class MeshResult:
     origin: complex = 0j
     """Working origin: for a polygon far from 0 (centre beyond 4 diameters) the stages run on
     the polygon translated exactly by −origin, so ``decomposition``, ``pieces`` and ``thin``
-    hold plane points relative to ``origin``; ``polygon`` and ``mesh`` are always in the
-    input's coordinates. 0 for every other polygon."""
+    hold plane points relative to ``origin``; ``polygon`` is always in the input's
+    coordinates. 0 for every other polygon."""
+    mesh_origin: complex = 0j
+    """The ``mesh``'s vertices are relative to this point: a vertex's position in the input's
+    coordinates is vertex + mesh_origin. 0 (the mesh is in the input's coordinates) unless the
+    polygon is far from (0, 0) and its absolute float64 coordinates cannot hold the angles
+    within ``quadmesh.mesh.ANGLE_TOL_DEG`` (e.g. a 10 m parcel at 5e6 m northing); then it is
+    ``origin`` (translated exactly) and ``verification`` is of the mesh as stored. Either way
+    the guarantee holds on ``mesh.vertices`` as they are."""
