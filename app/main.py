@@ -28,7 +28,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     src = p.add_mutually_exclusive_group()
     src.add_argument(
-        "--open", metavar="POLYGON", help="open a polygon file (JSON, CSV, GeoJSON, SVG)"
+        "--open",
+        metavar="FILE",
+        help="open a polygon (JSON, CSV, GeoJSON, SVG) or a mesh (JSON with quads, VTK, VTU, "
+        "MSH, OBJ, PLY, Medit)",
     )
     src.add_argument("--example", metavar="NAME", help="load a bundled example polygon")
     p.add_argument("--mesh", action="store_true", help="run the mesher to completion")
@@ -62,7 +65,8 @@ def run(argv: Sequence[str] | None = None) -> int:
     from .window import MainWindow
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
-    win = MainWindow(auto_update=not args.quit, popups=not args.quit)
+    # the views render when something changes, never on a timer (idle = no CPU)
+    win = MainWindow(popups=not args.quit)
     win.resize(*size)
     win.show()
     app.processEvents()
@@ -83,7 +87,7 @@ def run(argv: Sequence[str] | None = None) -> int:
         if args.color_by != "corner":
             win.layer_panel.color_mode.setCurrentIndex(1)
         if args.open:
-            win.open_polygon(args.open)
+            win.open_file(args.open)
         elif args.example:
             win.load_example(args.example)
         if args.mesh:

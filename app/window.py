@@ -10,14 +10,18 @@ information (counts, angles, timings, histogram).  All computing happens in ``qu
 from __future__ import annotations
 
 import dataclasses
+import json
+import re
+from collections.abc import Callable
 from html import escape as html_escape
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import QEventLoop, Qt, QTimer
-from PySide6.QtGui import QAction, QDoubleValidator, QKeySequence
+from PySide6.QtCore import QEventLoop, QSettings, Qt, QTimer
+from PySide6.QtGui import QAction, QDoubleValidator, QKeySequence, QTextDocument
 from PySide6.QtWidgets import (
+    QAbstractButton,
     QCheckBox,
     QDockWidget,
     QDoubleSpinBox,
@@ -28,9 +32,11 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QMainWindow,
     QMessageBox,
+    QPlainTextEdit,
     QProgressBar,
     QPushButton,
     QScrollArea,
+    QSizePolicy,
     QSpinBox,
     QSplitter,
     QVBoxLayout,
@@ -40,6 +46,7 @@ from PySide6.QtWidgets import (
 from quadmesh.errors import PolygonError, QuadmeshError
 from quadmesh.hyperbolic.geodesic import distance
 from quadmesh.hyperbolic.isometry import Isometry, disk_automorphism, disk_automorphism_inverse
+from quadmesh.mesh import QuadMesh
 from quadmesh.polygon import validate_polygon
 from quadmesh.render import (
     LAYER_COLORS,
@@ -85,27 +92,97 @@ _OPTION_SPECS: dict[str, tuple[str, str, float, float, float, int]] = {
 _DISK_HINT = "drag: point → centre · click: pick 2 points"
 
 
+def _on_click(button: QAbstractButton, slot: Callable[[], Any]) -> None:
+    """Connect a button's ``clicked`` to a slot called with NO arguments.
+
+    ``clicked`` carries Qt's ``checked`` flag; connected directly, a slot with an optional
+    first parameter (``start_mesh(job=None)``) would receive ``False`` as that argument."""
+    button.clicked.connect(lambda _checked=False: slot())
+
+
 def _drag_threshold(view: View2D) -> float:
     return 4.0 * view.pixel_size()
+
+
+class ErrorBox(QPlainTextEdit):
+    """The whole message of the last failure: read-only red text, wrapped at the widget's
+    width, as tall as the wrapped text up to ``max_lines`` lines (then it scrolls); hidden
+    while there is no message."""
+
+    def __init__(self, max_lines: int = 20, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.max_lines = max_lines
+        self.setObjectName("error_box")
+        self.setReadOnly(True)
+        self.setLineWrapMode(QPlainTextEdit.WidgetWidth)
+        self.setStyleSheet("QPlainTextEdit { color: #c00000; }")
+        self.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Fixed)
+        self._fitted_width = -1
+        self.hide()
+
+    def set_message(self, text: str) -> None:
+        """Show ``text`` (all of it) and resize to fit."""
+        self.setPlainText(text)
+        self.show()
+        self._fit()
+
+    def clear_message(self) -> None:
+        """Empty and hide the box."""
+        self.clear()
+        self.hide()
+
+    def _fit(self) -> None:
+        # lay the text out as the box will (same font, width and margins) to learn its height
+        doc = QTextDocument()
+        doc.setDefaultFont(self.font())
+        doc.setDocumentMargin(self.document().documentMargin())
+        doc.setPlainText(self.toPlainText())
+        # (as wrapped beside a vertical scroll bar: once the height fits, the bar goes away)
+        sb = self.verticalScrollBar().sizeHint().width()
+        doc.setTextWidth(max(self.width() - 2 * self.frameWidth() - sb, 80))
+        line = self.fontMetrics().lineSpacing()
+        body = min(max(doc.size().height(), 2 * line), self.max_lines * line)
+        self._fitted_width = self.width()
+        self.setFixedHeight(int(np.ceil(body)) + 2 * self.frameWidth() + line // 2)
+
+    def resizeEvent(self, event: Any) -> None:  # Qt API: a new width rewraps the text
+        super().resizeEvent(event)
+        if self.isVisible() and self.width() != self._fitted_width:
+            self._fit()
 
 
 class MainWindow(QMainWindow):
     """quadmesh's desktop viewer.
 
+    Both views render only when something in them changed (every change is followed by an
+    explicit ``render()``); nothing redraws while the app is idle.
+
     Args:
-        auto_update: passed to the pyvistaqt interactors (tests use False and render
-            explicitly, GUI-STACK.md).
+        auto_update: passed to the pyvistaqt interactors: a number re-renders both views that
+            many times a second whether or not anything changed (costly with big meshes; only
+            for debugging).  Default False.
         popups: show error message boxes (tests and scripted runs turn them off; the message
             is always in the Mesh dock and the status bar as well).
+        settings: where the last used folder is remembered (default: the user's
+            ``quadmesh/quadmesh-app`` settings).
     """
 
-    def __init__(self, *, auto_update: bool = False, popups: bool = True) -> None:
+    def __init__(
+        self,
+        *,
+        auto_update: bool | float = False,
+        popups: bool = True,
+        settings: QSettings | None = None,
+    ) -> None:
         super().__init__()
         self.setWindowTitle("quadmesh — quadrilateral meshes with angles in [60°, 120°]")
         self.resize(1280, 860)
         self.popups = popups
+        self.settings = settings if settings is not None else QSettings("quadmesh", "quadmesh-app")
         self.editor = PolygonEditor()
         self.result: Any = None
+        self.loaded_mesh: QuadMesh | None = None
+        self._loaded: Any = None  # result-like view of loaded_mesh for quadmesh.render
         self.last_error: str | None = None
         self.color_mode = "corner"
         self.disk_piece = 0
@@ -136,7 +213,7 @@ class MainWindow(QMainWindow):
         bar.addWidget(self.piece_spin)
         self.reset_disk_btn = QPushButton("Centre 0")
         self.reset_disk_btn.setToolTip("undo the disk automorphism and clear picked points")
-        self.reset_disk_btn.clicked.connect(self.reset_disk_transform)
+        _on_click(self.reset_disk_btn, self.reset_disk_transform)
         bar.addWidget(self.reset_disk_btn)
         self.distance_label = QLabel(_DISK_HINT)
         self.distance_label.setObjectName("distance_label")
@@ -207,6 +284,7 @@ class MainWindow(QMainWindow):
         self.grid_spin.valueChanged.connect(lambda g: self.set_snap(self.editor.snap, g))
         f.addRow(self.snap_check, self.grid_spin)
         row = QHBoxLayout()
+        self.draw_buttons: dict[str, QPushButton] = {}
         for text, slot in (
             ("Undo", self.undo),
             ("Redo", self.redo),
@@ -214,7 +292,9 @@ class MainWindow(QMainWindow):
             ("Clear", self.clear_polygon),
         ):
             b = QPushButton(text)
-            b.clicked.connect(slot)
+            b.setObjectName(f"{text.lower()}_button")
+            _on_click(b, slot)
+            self.draw_buttons[text.lower()] = b
             row.addWidget(b)
         f.addRow(row)
         draw.setMaximumWidth(270)
@@ -254,10 +334,11 @@ class MainWindow(QMainWindow):
         brow = QHBoxLayout()
         self.mesh_button = QPushButton("Mesh")
         self.mesh_button.setObjectName("mesh_button")
-        self.mesh_button.clicked.connect(self.start_mesh)
+        _on_click(self.mesh_button, self.start_mesh)
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
-        self.cancel_button.clicked.connect(self.cancel_mesh)
+        self.cancel_button.setObjectName("cancel_button")
+        _on_click(self.cancel_button, self.cancel_mesh)
         brow.addWidget(self.mesh_button)
         brow.addWidget(self.cancel_button)
         mf.addRow(brow)
@@ -266,10 +347,9 @@ class MainWindow(QMainWindow):
         self.progress_bar.setValue(0)
         self.progress_bar.setFormat("idle")
         mf.addRow(self.progress_bar)
-        self.error_label = QLabel("")
-        self.error_label.setWordWrap(True)
-        self.error_label.setStyleSheet("color: #c00000")
-        mf.addRow(self.error_label)
+        # the whole message of the last failure, wrapped and scrollable (hidden when none)
+        self.error_box = ErrorBox()
+        mf.addRow(self.error_box)
         mesh.setMaximumWidth(290)
         mesh_dock = self._add_dock("Mesh", mesh, Qt.RightDockWidgetArea)
 
@@ -307,7 +387,7 @@ class MainWindow(QMainWindow):
     def _build_menus(self) -> None:
         mb = self.menuBar()
         fm = mb.addMenu("&File")
-        self._action(fm, "&Open polygon…", self._open_dialog, QKeySequence.Open)
+        self._action(fm, "&Open polygon or mesh…", self._open_dialog, QKeySequence.Open)
         self._action(fm, "&Save polygon…", self._save_dialog, QKeySequence.Save)
         self._action(fm, "&Export mesh…", self._export_dialog, "Ctrl+E")
         self._action(fm, "Save &window screenshot…", self._screenshot_dialog, "Ctrl+P")
@@ -386,6 +466,60 @@ class MainWindow(QMainWindow):
         vertices, notes = read_polygon(path)
         self.set_polygon(_points_of(vertices))
         self.statusBar().showMessage("; ".join([f"opened {path}", *notes]), 8000)
+
+    def open_file(self, path: str | Path) -> None:
+        """Open a polygon or a mesh file: meshes (JSON with "quads", VTK, VTU, Gmsh, OBJ, PLY,
+        Medit) are shown as meshes (:meth:`open_mesh`), anything else is read as a polygon."""
+        if is_mesh_file(path):
+            self.open_mesh(path)
+        else:
+            self.open_polygon(path)
+
+    def open_mesh(self, path: str | Path) -> None:
+        """Read a quad mesh file with quadmesh.io and show it (:meth:`show_mesh`)."""
+        from quadmesh.io import read_mesh
+
+        self.show_mesh(read_mesh(path), Path(path).name)
+        m = self.loaded_mesh
+        self.statusBar().showMessage(
+            f"opened mesh {path}: {m.n_quads} quads, {m.n_vertices} vertices", 8000
+        )
+
+    def show_mesh(self, mesh: QuadMesh, name: str = "mesh") -> None:
+        """Show a quad mesh that did not come from meshing here (no polygon, no pieces): the
+        final-mesh and bad-quad layers, its angle statistics and histogram.  The drawing is
+        cleared (undoable); drawing a new polygon removes the mesh again."""
+        from types import SimpleNamespace
+
+        if self.editor.points:
+            self.editor.clear()
+            self._selected = None
+        self._drop_result("")
+        self._clear_error()
+        self._refresh_polygon()
+        quality = mesh.quality()
+        # the result-like object the layer builders of quadmesh.render need
+        loaded = SimpleNamespace(mesh=mesh, polygon=None, quality=quality, origin=0j)
+        self.loaded_mesh, self._loaded = mesh, loaded
+        for layer in ("final_mesh", "bad_quads"):
+            self._put(self.plane, layer, build_layer(loaded, layer, color_by=self.color_mode))
+        q = quality
+        rows = [
+            ("mesh file", html_escape(name)),
+            ("quads", f"{q.n_quads}"),
+            ("vertices", f"{q.n_vertices}"),
+            ("min angle", f"{q.min_angle:.3f}°"),
+            ("max angle", f"{q.max_angle:.3f}°"),
+            ("outside [60°,120°]", f"{q.n_angles_outside}"),
+        ]
+        if q.n_original:
+            rows.append(("corners < 60° in one quad (kept)", f"{q.n_original}"))
+        html = "<table>" + "".join(f"<tr><td>{k}</td><td><b>{v}</b></td></tr>" for k, v in rows)
+        html += "</table><p>opened from a file: no polygon, pieces or timings</p>"
+        self.info_label.setText(html)
+        self.histogram.set_data(q.histogram, q.bin_edges)
+        self.reset_plane_view()
+        self.plane.render()
 
     def save_polygon(self, path: str | Path) -> None:
         """Write the current (closed, valid) polygon with quadmesh.io."""
@@ -502,8 +636,18 @@ class MainWindow(QMainWindow):
         self._polygon_changed()
 
     def _polygon_changed(self, light: bool = False) -> None:
-        if self.result is not None and self._result_polygon_differs():
+        """After any edit or load: drop a result that no longer matches, forget the last
+        failure and the disk view's picked points, redraw the polygon."""
+        if (self.result is not None and self._result_polygon_differs()) or (
+            self.loaded_mesh is not None and self.editor.points
+        ):
             self._drop_result("the polygon changed; mesh again")
+        self._clear_error()
+        if self.picked:
+            self.picked = []
+            self._draw_picked()
+            self.distance_label.setText(_DISK_HINT)
+            self.disk.render()
         self._refresh_polygon()
 
     def _result_polygon_differs(self) -> bool:
@@ -567,7 +711,10 @@ class MainWindow(QMainWindow):
         if self.runner.busy:
             return False
         if not self.editor.closed or self.editor.problem():
-            self._show_error(self.editor.problem() or "close the polygon first")
+            why = self.editor.problem() or "close the polygon first"
+            if not self.editor.points and self.loaded_mesh is not None:
+                why = "the mesh on screen was opened from a file; open or draw a polygon to mesh"
+            self._show_error(why)
             return False
         try:
             options = self.mesh_options()
@@ -582,8 +729,7 @@ class MainWindow(QMainWindow):
                 return mesh_polygon(z, options, progress=progress, cancel=cancel)
 
         self._job_polygon = tuple(self.editor.points)
-        self.last_error = None
-        self.error_label.setText("")
+        self._clear_error()
         self.mesh_button.setEnabled(False)
         self.cancel_button.setEnabled(True)
         self.progress_bar.setValue(0)
@@ -634,18 +780,35 @@ class MainWindow(QMainWindow):
         self._refresh_polygon()
 
     def _show_error(self, message: str) -> None:
+        """Show the whole ``message`` in the Mesh dock (wrapped; scrollable beyond
+        ``ErrorBox.max_lines`` lines), its first line in the status bar, and a message box."""
         self.last_error = message
-        self.error_label.setText(message)
-        self.statusBar().showMessage(message, 15000)
+        self.error_box.set_message(message)
+        first = message.splitlines()[0] if message else ""
+        if first != message:
+            first += "  (whole message in the Mesh panel)"
+        self.statusBar().showMessage(first, 15000)
         if self.popups:
             box = QMessageBox(QMessageBox.Warning, "quadmesh", message, parent=self)
             box.setAttribute(Qt.WA_DeleteOnClose)
             box.open()
 
+    def _clear_error(self) -> None:
+        """Forget the last failure: error box, status bar message and a "failed" progress bar."""
+        if self.last_error is None and self.error_box.isHidden():
+            return
+        self.last_error = None
+        self.error_box.clear_message()
+        self.statusBar().clearMessage()
+        if self.progress_bar.format() == "failed":
+            self.progress_bar.setValue(0)
+            self.progress_bar.setFormat("idle")
+
     # ================================================================== result display
     def set_result(self, result: Any) -> None:
         """Show a MeshResult: build every layer, the information panel and the histogram."""
         self.result = result
+        self.loaded_mesh = self._loaded = None
         self.piece_spin.blockSignals(True)
         self.piece_spin.setRange(0, max(len(result.pieces) - 1, 0))
         self.piece_spin.setValue(min(self.disk_piece, max(len(result.pieces) - 1, 0)))
@@ -675,20 +838,22 @@ class MainWindow(QMainWindow):
 
     def _drop_result(self, why: str) -> None:
         self.result = None
+        self.loaded_mesh = self._loaded = None
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
         self.info_label.setText(why)
         self.histogram.clear()
         self.progress_bar.setValue(0)
         self.progress_bar.setFormat("idle")
+        self.plane.render()
+        self.disk.render()
 
     def set_color_mode(self, mode: str) -> None:
         """Colour the final mesh by ``"corner"`` angle or by each quad's ``"worst"`` deviation."""
         self.color_mode = mode
-        if self.result is not None:
-            self._put(
-                self.plane, "final_mesh", build_layer(self.result, "final_mesh", color_by=mode)
-            )
+        shown = self.result if self.result is not None else self._loaded
+        if shown is not None:
+            self._put(self.plane, "final_mesh", build_layer(shown, "final_mesh", color_by=mode))
             self.plane.render()
 
     def _on_piece_changed(self, k: int) -> None:
@@ -752,12 +917,16 @@ class MainWindow(QMainWindow):
         self.layer_panel.set_visible_layers(names)
 
     def reset_plane_view(self) -> None:
-        """Fit the plane view to the polygon (or the unit square when there is none)."""
+        """Fit the plane view to the polygon, else to a mesh opened from a file, else to the
+        square [-1, 1]²."""
         z = self.editor.z
+        if z.size < 2 and self.loaded_mesh is not None:
+            z = self.loaded_mesh.z
         if z.size >= 2:
             pad = 0.05 * max(np.ptp(z.real), np.ptp(z.imag), 1e-9)
             low = pad
-            if self.result is not None:  # room for the horizontal colour bar at the bottom
+            if self.result is not None or self.loaded_mesh is not None:
+                # room for the horizontal colour bar at the bottom
                 aspect = self.plane.plotter.height() / max(self.plane.plotter.width(), 1)
                 low = 0.2 * max(np.ptp(z.imag), np.ptp(z.real) * aspect)
             self.plane.reset_view(
@@ -843,13 +1012,23 @@ class MainWindow(QMainWindow):
         self.disk.set_overlay("picked", LayerGeometry("picked", "disk", parts))
 
     # ================================================================== output
+    def shown_mesh(self) -> QuadMesh | None:
+        """The quad mesh on screen: the last result's, else one opened from a file."""
+        if self.result is not None:
+            return self.result.mesh
+        return self.loaded_mesh
+
     def export_mesh(self, path: str | Path) -> None:
-        """Write the final mesh with quadmesh.io (format from the suffix)."""
+        """Write the mesh on screen with quadmesh.io (format from the suffix)."""
         from quadmesh.io import write_mesh
 
-        if self.result is None:
+        mesh = self.shown_mesh()
+        if mesh is None:
             raise QuadmeshError("there is no mesh to export; mesh the polygon first", stage="io")
-        write_mesh(path, self.result.mesh)
+        origin = 0j
+        if self.result is not None and mesh is self.result.mesh:
+            origin = complex(getattr(self.result, "mesh_origin", 0j) or 0j)
+        write_mesh(path, mesh, origin=origin)
 
     def save_screenshot(self, path: str | Path) -> None:
         """Save a PNG of the whole window (views included)."""
@@ -858,40 +1037,59 @@ class MainWindow(QMainWindow):
         if not self.grab().save(str(path)):
             raise OSError(f"could not write {path}")
 
+    def last_folder(self) -> str:
+        """The folder of the file last opened or written (remembered across sessions)."""
+        folder = str(self.settings.value("last_folder", "") or "")
+        return folder if folder and Path(folder).is_dir() else str(Path.home())
+
     def _file_dialog(self, save: bool, title: str, filt: str) -> str:
+        """Ask for a file, starting in the last used folder.  When saving, a name typed
+        without a suffix gets the suffix of the chosen filter.  Remembers the folder."""
         fn = QFileDialog.getSaveFileName if save else QFileDialog.getOpenFileName
-        path, _ = fn(self, title, "", filt)
+        path, chosen = fn(self, title, self.last_folder(), filt)
+        if not path:
+            return ""
+        if save:
+            path = with_filter_suffix(path, chosen or filt)
+        self.settings.setValue("last_folder", str(Path(path).resolve().parent))
+        self.settings.sync()
         return path
 
-    def _guarded(self, what: str, fn: Any, *args: Any) -> None:
+    def _guarded(self, what: str, fn: Any, *args: Any) -> bool:
         try:
             fn(*args)
         except (QuadmeshError, OSError, ValueError) as exc:
             self._show_error(f"{what} failed: {exc}")
+            return False
+        return True
 
     def _open_dialog(self) -> None:
-        p = self._file_dialog(
-            False, "Open polygon", "Polygons (*.json *.geojson *.csv *.txt *.svg);;All files (*)"
-        )
+        p = self._file_dialog(False, "Open polygon or mesh", _OPEN_FILTERS)
         if p:
-            self._guarded("opening the polygon", self.open_polygon, p)
+            self._guarded(f"opening {Path(p).name}", self.open_file, p)
 
     def _save_dialog(self) -> None:
         p = self._file_dialog(True, "Save polygon", "JSON (*.json)")
-        if p:
-            self._guarded("saving the polygon", self.save_polygon, p)
+        if p and self._guarded("saving the polygon", self.save_polygon, p):
+            self.statusBar().showMessage(
+                f"polygon saved: {len(self.editor.points)} vertices → {p}", 10000
+            )
 
     def _export_dialog(self) -> None:
-        p = self._file_dialog(
-            True, "Export mesh", "JSON (*.json);;VTK (*.vtk);;Gmsh (*.msh);;Wavefront (*.obj)"
-        )
-        if p:
-            self._guarded("exporting the mesh", self.export_mesh, p)
+        if self.shown_mesh() is None:
+            self._show_error("there is no mesh to export; mesh the polygon first")
+            return
+        p = self._file_dialog(True, "Export mesh", _EXPORT_FILTERS)
+        if p and self._guarded("exporting the mesh", self.export_mesh, p):
+            m = self.shown_mesh()
+            self.statusBar().showMessage(
+                f"mesh exported: {m.n_quads} quads, {m.n_vertices} vertices → {p}", 10000
+            )
 
     def _screenshot_dialog(self) -> None:
         p = self._file_dialog(True, "Save screenshot", "PNG (*.png)")
-        if p:
-            self._guarded("saving the screenshot", self.save_screenshot, p)
+        if p and self._guarded("saving the screenshot", self.save_screenshot, p):
+            self.statusBar().showMessage(f"screenshot saved → {p}", 10000)
 
     # ================================================================== shutdown
     def keyPressEvent(self, event: Any) -> None:
@@ -913,6 +1111,44 @@ class MainWindow(QMainWindow):
             if not getattr(v, "_closed", False):
                 v.close_plotter()
                 v._closed = True
+
+
+_MESH_SUFFIXES = (".vtk", ".vtu", ".msh", ".obj", ".ply", ".mesh")
+_OPEN_FILTERS = (
+    "Polygons and meshes (*.json *.geojson *.csv *.txt *.svg "
+    + " ".join(f"*{e}" for e in _MESH_SUFFIXES)
+    + ");;Polygons (*.json *.geojson *.csv *.txt *.svg);;Meshes (*.json "
+    + " ".join(f"*{e}" for e in _MESH_SUFFIXES)
+    + ");;All files (*)"
+)
+_EXPORT_FILTERS = (
+    "JSON (*.json);;VTK (*.vtk);;VTK XML (*.vtu);;Gmsh 2.2 (*.msh);;Wavefront (*.obj)"
+    ";;Stanford PLY (*.ply);;Medit (*.mesh)"
+)
+
+
+def with_filter_suffix(path: str, name_filter: str) -> str:
+    """``path`` with the first suffix of a file-dialog filter such as ``"VTK (*.vtk)"``
+    appended when the file name has no suffix of its own."""
+    if Path(path).suffix:
+        return path
+    m = re.search(r"\*(\.[A-Za-z0-9]+)", name_filter)
+    return path + m.group(1) if m else path
+
+
+def is_mesh_file(path: str | Path) -> bool:
+    """True for a mesh file: a meshio suffix, or JSON whose top-level object has "quads"."""
+    p = Path(path)
+    ext = p.suffix.lower()
+    if ext in _MESH_SUFFIXES:
+        return True
+    if ext != ".json" or not p.is_file():
+        return False
+    try:
+        data = json.loads(p.read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return False  # read_polygon reports what is wrong with it
+    return isinstance(data, dict) and "quads" in data
 
 
 def _points_of(obj: Any) -> np.ndarray:

@@ -9,6 +9,11 @@
 * ``--outlines [--seed S]``: one generated outline of every family of
   :mod:`quadmesh.outlines` (floor plans, pixel contours, multi-scale notches, spiky stars,
   coastlines, keyholes, pen strokes), with the same columns and the adaptive fixes;
+* ``--families [--family NAME] [--limit K] [--timeout S] [--workers W]``: the corridor
+  families of :mod:`quadmesh.families` (pen strokes, glyphs, image contours, rivers, coasts,
+  random walks), every polygon meshed in a worker process killed after S seconds; one table
+  row per family (meshed/total, quads per vertex, time, smallest edge / local width,
+  length/width) and a summary of the failure reasons;
 * ``--disk``: the disk construction alone (Lemma 2.2 + piece meshes) for m = 10, 100, 1000
   random admissible arcs: time, pieces and quads.
 
@@ -143,6 +148,256 @@ def run_outlines(seed: int = 0) -> list[dict]:
     return rows
 
 
+def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> None:
+    """Mesh ``vertices`` in a worker process; send a small result dict through ``conn``."""
+    from .errors import QuadmeshError
+
+    t0 = time.perf_counter()
+    try:
+        r = mesh_polygon(vertices, options)
+    except QuadmeshError as exc:
+        out = {"status": "failed", "error": type(exc).__name__, "stage": exc.stage}
+        out["message"] = str(exc)
+    except Exception as exc:  # a bug, not a refusal: reported as such
+        out = {"status": "crashed", "error": type(exc).__name__, "stage": "-"}
+        out["message"] = f"{type(exc).__name__}: {exc}"
+    else:
+        out = {"status": "meshed", "quads": int(r.quality.n_quads)}
+        out["min_angle"], out["max_angle"] = r.quality.min_angle, r.quality.max_angle
+    out["time"] = time.perf_counter() - t0
+    conn.send(out)
+    conn.close()
+
+
+def mesh_with_timeout(
+    polygons: list[np.ndarray],
+    timeout: float = 60.0,
+    workers: int = 1,
+    options: MeshOptions | None = None,
+    on_result=None,
+) -> list[dict]:
+    """Mesh every polygon in its own worker process (at most ``workers`` at a time); a worker
+    still running after ``timeout`` seconds is killed and its polygon reported as
+    ``status="timeout"``. Returns one dict per polygon, in order: ``status`` (meshed, failed,
+    crashed, timeout), ``time`` and either ``quads`` or ``error``/``stage``/``message``.
+    ``on_result(i, result)`` is called as each polygon finishes."""
+    import multiprocessing as mp
+    from multiprocessing.connection import wait
+
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    pending = list(range(len(polygons)))
+    running: dict = {}
+    results: list[dict] = [{} for _ in polygons]
+
+    def finish(i: int, res: dict) -> None:
+        results[i] = res
+        if on_result is not None:
+            on_result(i, res)
+
+    while pending or running:
+        while pending and len(running) < max(1, workers):
+            i = pending.pop(0)
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(
+                target=_mesh_worker, args=(send, np.asarray(polygons[i]), options), daemon=True
+            )
+            proc.start()
+            send.close()
+            running[recv] = (i, proc, time.perf_counter())
+        now = time.perf_counter()
+        left = min(t0 + timeout - now for _, _, t0 in running.values())
+        for conn in wait(list(running), timeout=max(left, 0.0)):
+            i, proc, t0 = running.pop(conn)
+            try:
+                res = conn.recv()
+            except EOFError:
+                res = {"status": "crashed", "error": "WorkerDied", "stage": "-"}
+                res["message"] = "the worker process died (out of memory?)"
+                res["time"] = time.perf_counter() - t0
+            conn.close()
+            proc.join()
+            finish(i, res)
+        now = time.perf_counter()
+        for conn, (i, proc, t0) in list(running.items()):
+            if now - t0 >= timeout:
+                proc.kill()
+                proc.join()
+                conn.close()
+                del running[conn]
+                finish(
+                    i,
+                    {
+                        "status": "timeout",
+                        "error": "Timeout",
+                        "stage": "-",
+                        "time": timeout,
+                        "message": "no result within the time limit",
+                    },
+                )
+    return results
+
+
+def _subset(items: list, limit: int | None) -> list:
+    """``limit`` items spread evenly over ``items`` (all of them when limit is None)."""
+    if limit is None or limit >= len(items):
+        return list(items)
+    idx = np.unique(np.round(np.linspace(0, len(items) - 1, max(limit, 1))).astype(int))
+    return [items[k] for k in idx]
+
+
+def _reason(res: dict) -> str:
+    """A failure's class, stage and message with the numbers (vertex indices, coordinates)
+    replaced by '#', so that failures of the same kind group together."""
+    import re
+
+    msg = res.get("message", "")
+    msg = re.sub(r"^\[[^\]]*\]\s*", "", msg)
+    msg = re.sub(r"\(?-?\d+(\.\d+)?(e[-+]?\d+)?(j|[-+]\d+(\.\d+)?(e[-+]?\d+)?j)?\)?", "#", msg)
+    msg = msg[:110] + ("…" if len(msg) > 110 else "")
+    return f"{res['error']} [{res['stage']}]: {msg}"
+
+
+def run_families(
+    families: dict | None = None,
+    *,
+    seed: int = 0,
+    limit: int | None = None,
+    timeout: float = 60.0,
+    workers: int = 1,
+    options: MeshOptions | None = None,
+    verbose: bool = True,
+) -> tuple[list[dict], list[dict]]:
+    """Mesh the members of ``families`` (name -> ``f(seed) -> list[Member]``; default
+    :data:`quadmesh.families.FAMILIES`), at most ``limit`` per family spread over the list,
+    each under ``timeout`` seconds. Returns (rows, summary): one row per polygon (family,
+    name, n, corridor metrics of :func:`quadmesh.families.polygon_metrics`, and the mesher's
+    result of :func:`mesh_with_timeout`) and one summary dict per family
+    (:func:`summarise_families`)."""
+    from .families import FAMILIES, polygon_metrics
+
+    families = FAMILIES if families is None else families
+    rows: list[dict] = []
+    for fam, make in families.items():
+        try:
+            members = make(seed)
+        except ImportError as exc:
+            print(f"family {fam} skipped: {exc} (pip install 'quadmesh[families]')")
+            continue
+        for m in _subset(members, limit):
+            met = polygon_metrics(m.vertices)
+            rows.append(
+                {
+                    "family": fam,
+                    "name": m.name,
+                    "n": len(m.vertices),
+                    "vertices": m.vertices,
+                    "nominal_aspect": m.aspect,
+                    **met,
+                }
+            )
+
+    def show(i: int, res: dict) -> None:
+        if verbose:
+            r = rows[i]
+            what = f"{res['quads']} quads" if res["status"] == "meshed" else _reason(res)[:100]
+            print(
+                f"  {r['family']:12s} {r['name']:18s} n={r['n']:5d} {res['time']:7.2f} s  {what}",
+                flush=True,
+            )
+
+    results = mesh_with_timeout([r["vertices"] for r in rows], timeout, workers, options, show)
+    for r, res in zip(rows, results):
+        del r["vertices"]
+        r.update(res)
+    return rows, summarise_families(rows)
+
+
+def summarise_families(rows: list[dict]) -> list[dict]:
+    """Per family: ``meshed``/``total``, median and max quads per polygon vertex (meshed
+    polygons), median and max time (all polygons; a timeout counts as the timeout),
+    median and min of the smallest edge / local width, median and max length/width (the
+    generator's nominal ratio where defined, else area / width²) and ``failures``: reason ->
+    count (:func:`_reason`)."""
+    from collections import Counter
+
+    out = []
+    for fam in dict.fromkeys(r["family"] for r in rows):
+        rs = [r for r in rows if r["family"] == fam]
+        ok = [r for r in rs if r["status"] == "meshed"]
+        qpv = [r["quads"] / r["n"] for r in ok]
+        times = [r["time"] for r in rs]
+        ew = [r["min_edge_over_width"] for r in rs]
+        asp = [r["nominal_aspect"] or r["aspect"] for r in rs]
+        out.append(
+            {
+                "family": fam,
+                "meshed": len(ok),
+                "total": len(rs),
+                "n_median": float(np.median([r["n"] for r in rs])),
+                "n_max": max(r["n"] for r in rs),
+                "quads_per_vertex_median": float(np.median(qpv)) if qpv else None,
+                "quads_per_vertex_max": float(np.max(qpv)) if qpv else None,
+                "time_median": float(np.median(times)),
+                "time_max": float(np.max(times)),
+                "timeouts": sum(r["status"] == "timeout" for r in rs),
+                "edge_over_width_median": float(np.median(ew)),
+                "edge_over_width_min": float(np.min(ew)),
+                "aspect_median": float(np.median(asp)),
+                "aspect_max": float(np.max(asp)),
+                "failures": dict(
+                    Counter(_reason(r) for r in rs if r["status"] != "meshed").most_common()
+                ),
+            }
+        )
+    return out
+
+
+def format_family_table(summary: list[dict]) -> str:
+    """The per-family table of :func:`summarise_families` and, below it, the failure
+    reasons with their counts."""
+
+    def num(x, fmt):
+        return "-" if x is None else format(x, fmt)
+
+    def pair(a: str, b: str) -> str:
+        return f"{a}/{b}"
+
+    cols = [
+        ("meshed", 8),
+        ("n med/max", 11),
+        ("quads/n med/max", 16),
+        ("time s med/max", 15),
+        ("edge/width med/min", 19),
+        ("L/w med/max", 12),
+    ]
+    lines = [f"{'family':12s} " + " ".join(f"{c:>{w}}" for c, w in cols)]
+    for s in summary:
+        cells = [
+            pair(str(s["meshed"]), str(s["total"])),
+            pair(f"{s['n_median']:.0f}", str(s["n_max"])),
+            pair(num(s["quads_per_vertex_median"], ".0f"), num(s["quads_per_vertex_max"], ".0f")),
+            pair(
+                f"{s['time_median']:.1f}", f"{s['time_max']:.1f}" + ("+" if s["timeouts"] else "")
+            ),
+            pair(f"{s['edge_over_width_median']:.3f}", f"{s['edge_over_width_min']:.4f}"),
+            pair(f"{s['aspect_median']:.0f}", f"{s['aspect_max']:.0f}"),
+        ]
+        lines.append(
+            f"{s['family']:12s} " + " ".join(f"{c:>{w}}" for c, (_, w) in zip(cells, cols))
+        )
+    lines.append("")
+    lines.append(
+        "edge/width: smallest edge length / local width (diameter of the largest inscribed "
+        "disk tangent at the edge's midpoint); L/w: nominal corridor length/width, else "
+        "area/width²; '+' after a time: timeouts"
+    )
+    for s in summary:
+        if s["failures"]:
+            lines.append(f"{s['family']} failures:")
+            lines += [f"  {c:4d} x {why}" for why, c in s["failures"].items()]
+    return "\n".join(lines)
+
+
 def run_disk(sizes: tuple[int, ...] = (10, 100, 1000)) -> None:
     """Time the disk construction (Lemma 2.2 and the piece meshes) on random arcs."""
     from .disk import disk_mesh
@@ -171,8 +426,37 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--outlines", action="store_true", help="mesh generated outlines (quadmesh.outlines)"
     )
-    ap.add_argument("--seed", type=int, default=0, help="seed of --outlines")
+    ap.add_argument("--seed", type=int, default=0, help="seed of --outlines and --families")
+    ap.add_argument(
+        "--families", action="store_true", help="mesh the corridor families (quadmesh.families)"
+    )
+    ap.add_argument(
+        "--family",
+        action="append",
+        default=None,
+        metavar="NAME",
+        help="with --families: only this family (repeatable)",
+    )
+    ap.add_argument("--limit", type=int, default=None, help="with --families: K per family")
+    ap.add_argument("--timeout", type=float, default=60.0, help="with --families: s per polygon")
+    ap.add_argument("--workers", type=int, default=1, help="with --families: worker processes")
     args = ap.parse_args(argv)
+    if args.families:
+        from .families import FAMILIES
+
+        names = args.family or list(FAMILIES)
+        unknown = [f for f in names if f not in FAMILIES]
+        if unknown:
+            ap.error(f"unknown family {unknown[0]!r} (known: {', '.join(FAMILIES)})")
+        _, summary = run_families(
+            {f: FAMILIES[f] for f in names},
+            seed=args.seed,
+            limit=args.limit,
+            timeout=args.timeout,
+            workers=args.workers,
+        )
+        print(format_family_table(summary))
+        return 0
     if args.examples:
         run_examples()
         return 0

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputFormatError, MeshVerificationError, PolygonError, QuadmeshError
+from .mesh import ANGLE_TOL_DEG
 
 __all__ = ["EXIT_INPUT", "EXIT_INVALID", "EXIT_OK", "EXIT_STAGE", "build_parser", "main"]
 
@@ -67,6 +68,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--n", type=int, help="steps per half pentagon side (Lemma 4.1)")
     p.add_argument("--depth-step", type=float, help="spacing of the depth sequence (Lemma 5.1)")
     p.add_argument("--delta", type=float, help="extremal-distance threshold of narrow channels")
+    p.add_argument(
+        "--refine",
+        type=int,
+        help="split every quad into a k × k bilinear grid (k ≥ 1; not for polygons with "
+        "corners below 60°)",
+    )
     p.add_argument("--stats", action="store_true", help="print the quality report and timings")
     p.add_argument("--png", type=Path, help="also render the mesh into this PNG")
     p.add_argument("-v", "--verbose", action="store_true", help="print progress to stderr")
@@ -78,8 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--angle-tol",
         type=float,
-        default=1e-6,
-        help="slack in degrees on 60° and 120° (plus the float64 rounding of the coordinates)",
+        default=None,
+        help="fixed slack in degrees on 60° and 120°, the same for every quad "
+        "(default: the mesher's own, 1e-5)",
     )
     p.set_defaults(func=_cmd_check)
 
@@ -88,7 +96,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_info)
 
     sub.add_parser(
-        "bench", help="benchmark: time per stage and quads against n (quadmesh bench --help)"
+        "bench",
+        help="benchmark: time per stage and quads against n; --families: the corridor "
+        "test families (quadmesh bench --help)",
     )
 
     p = sub.add_parser("disk-demo", help="render the disk construction of Lemma 2.2")
@@ -120,7 +130,12 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             f"(use {', '.join(MESH_FORMATS)})"
         )
     poly = _read_polygon(args.polygon)
-    given = {"n": args.n, "depth_step": args.depth_step, "channel_delta": args.delta}
+    given = {
+        "n": args.n,
+        "depth_step": args.depth_step,
+        "channel_delta": args.delta,
+        "refine": args.refine,
+    }
     options = dataclasses.replace(
         MeshOptions(), **{k: v for k, v in given.items() if v is not None}
     )
@@ -131,11 +146,26 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     result = mesh_polygon(poly, options, progress=progress if args.verbose else None)
     elapsed = time.perf_counter() - t0
-    write_mesh(args.output, result.mesh)
+    origin = result.mesh_origin
+    write_mesh(args.output, result.mesh, origin=origin)
+    _check_written(args.output, result, poly)
     q = result.quality
+    if origin:
+        where = (
+            'its "origin" field'
+            if args.output.suffix.lower() == ".json"
+            else "this origin (the file format has no place for it)"
+        )
+        print(
+            f"note: the polygon lies {abs(origin) / poly.diameter:.3g} diameters from (0, 0), "
+            "where float64 absolute coordinates cannot hold the mesh's angles within "
+            f"{ANGLE_TOL_DEG:g}°: the mesh is written relative to the origin "
+            f"({origin.real:.17g}, {origin.imag:.17g}); add {where} to get absolute positions"
+        )
     print(
         f"wrote {args.output}: {q.n_quads} quads, {q.n_vertices} vertices for n = {poly.n}; "
-        f"new angles in [{q.min_angle:.3f}°, {q.max_angle:.3f}°]; {elapsed:.2f} s"
+        f"new angles in [{q.min_angle:.3f}°, {q.max_angle:.3f}°] (checked on the written "
+        f"coordinates within {ANGLE_TOL_DEG:g}°); {elapsed:.2f} s"
     )
     if args.stats:
         print(q.summary())
@@ -155,12 +185,38 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _check_written(path: Path, result, poly) -> None:
+    """Read the written mesh file back; unless it holds exactly the verified coordinates and
+    quads, verify what it holds. Raises MeshVerificationError if that fails."""
+    from .io import read_mesh_with_origin
+
+    back, origin = read_mesh_with_origin(path)
+    if path.suffix.lower() != ".json":
+        origin = result.mesh_origin
+    mesh = result.mesh
+    if (
+        origin == result.mesh_origin
+        and np.array_equal(back.vertices, mesh.vertices)
+        and np.array_equal(back.quads, mesh.quads)
+    ):
+        return
+    report = back.verify(poly, origin=origin)
+    if not report.ok:
+        raise MeshVerificationError(
+            f"{path}: the coordinates as written fail verification: "
+            + "; ".join(report.problems[:5])
+        )
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
-    from .io import read_mesh
+    from .io import read_mesh_with_origin
 
     poly = _read_polygon(args.polygon)
-    mesh = read_mesh(args.mesh)
-    report = mesh.verify(poly, angle_tol=args.angle_tol)
+    mesh, origin = read_mesh_with_origin(args.mesh)
+    if origin:
+        print(f"note: the mesh's vertices are relative to ({origin.real:.17g}, {origin.imag:.17g})")
+    tol = ANGLE_TOL_DEG if args.angle_tol is None else args.angle_tol
+    report = mesh.verify(poly, angle_tol=tol, origin=origin)
     print(report.summary())
     return EXIT_OK if report.ok else EXIT_INVALID
 

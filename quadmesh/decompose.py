@@ -84,6 +84,7 @@ polygon without relaxed candidates (the 1004-vertex comb) pays nothing more.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -147,6 +148,11 @@ class DecomposeOptions:
             mesh spans the whole band between the two geodesic images in the overlaps, so a
             short core is enough; a short core leaves deeper overlaps.  With the defaults a
             channel needs a strip length ≥ 3.25 (ED ≤ 0.31).
+        refine_retry: shorter overlap depths (widths) tried, in decreasing order, when the
+            relaxed pass at ``refine_overlap`` leaves a piece crowded or finds nothing in it:
+            a serpentine corridor of legs 4 widths long has straight stretches of only 2.5
+            widths between the vertex discs of its corners, too short for 2·1.5 + 0.25 but
+            enough for 2·1.0 + 0.25.  ``()`` disables the retries.
     """
 
     delta: float = 0.15
@@ -161,29 +167,53 @@ class DecomposeOptions:
     refine_delta: float = 0.5
     refine_overlap: float = 1.5
     refine_core: float = 0.25
+    refine_retry: tuple[float, ...] = (1.25, 1.0)
 
     def __post_init__(self) -> None:
+        def bad(name: str, rule: str) -> ValueError:
+            return ValueError(f"DecomposeOptions.{name} must {rule}, got {getattr(self, name)!r}")
+
+        for name in (
+            "delta", "kappa", "min_overlap", "min_core", "parallel_tol", "center_tol",
+            "crowding_gap", "refine_delta", "refine_overlap", "refine_core",
+        ):  # fmt: skip
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not np.isfinite(v):
+                raise bad(name, "be a finite number")
         if not (0.0 < self.delta < 1.0):
-            raise DecompositionError(f"delta must lie in (0, 1), got {self.delta}")
+            raise bad("delta", "lie in (0, 1)")
         if not (0.0 < self.kappa <= 0.25):
-            raise DecompositionError(f"kappa must lie in (0, 1/4], got {self.kappa}")
-        if int(self.crosscut_vertices) < 2:
-            raise DecompositionError("crosscut_vertices must be at least 2")
-        if min(self.min_overlap, self.min_core, self.refine_overlap, self.refine_core) <= 0:
-            raise DecompositionError(
-                "min_overlap, min_core, refine_overlap and refine_core must be positive"
-            )
+            raise bad("kappa", "lie in (0, 1/4]")
+        cv = self.crosscut_vertices
+        if isinstance(cv, bool) or not isinstance(cv, numbers.Real) or int(cv) != cv or cv < 2:
+            raise bad("crosscut_vertices", "be an integer of at least 2")
+        for name in ("min_overlap", "min_core", "refine_overlap", "refine_core", "center_tol"):
+            if getattr(self, name) <= 0:
+                raise bad(name, "be positive")
         if not (0.0 < self.parallel_tol < 0.5):
-            raise DecompositionError("parallel_tol must lie in (0, 0.5) radians")
+            raise bad("parallel_tol", "lie in (0, 0.5) radians")
         if not (self.crowding_gap >= 0.0):
-            raise DecompositionError(f"crowding_gap must be >= 0, got {self.crowding_gap}")
+            raise bad("crowding_gap", "be >= 0")
         if not (0.0 < self.refine_delta < 1.0):
-            raise DecompositionError(f"refine_delta must lie in (0, 1), got {self.refine_delta}")
+            raise bad("refine_delta", "lie in (0, 1)")
+        if self.overlap is not None and (
+            isinstance(self.overlap, bool)
+            or not isinstance(self.overlap, numbers.Real)
+            or not np.isfinite(self.overlap)
+        ):
+            raise bad("overlap", "be None or a finite number")
+        retry = self.refine_retry
+        if not isinstance(retry, tuple) or not all(
+            isinstance(x, numbers.Real) and not isinstance(x, bool) and 0 < x <= self.refine_overlap
+            for x in retry
+        ):
+            raise bad("refine_retry", "be a tuple of depths in (0, refine_overlap]")
         d = self.overlap_depth
         if not (self.min_overlap <= d < 1.0 / self.delta):
-            raise DecompositionError(
-                f"overlap depth {d:.3g} must lie in [min_overlap, 1/delta) = "
-                f"[{self.min_overlap:.3g}, {1.0 / self.delta:.3g})"
+            raise ValueError(
+                f"DecomposeOptions: the overlap depth {d:.3g} must lie in [min_overlap, 1/delta)"
+                f" = [{self.min_overlap:.3g}, {1.0 / self.delta:.3g})"
+                + ("" if self.overlap is not None else " (it is 1/(4·delta) + 1 by default)")
             )
 
     @property
@@ -343,9 +373,9 @@ class ThickPiece:
         radius: radius of that disk.
         min_gap: estimate of the smallest prevertex gap (radians) of the piece's disk map
             with f(0) = ``center``: ``2π·min_k ω(center, side_k)``.  Estimated only where the
-            crowding refinement could split the piece further (it holds a relaxed channel
-            candidate); NaN otherwise, when the refinement is off (``crowding_gap = 0``) or
-            when the estimate failed.
+            crowding refinement could split the piece further (it held a relaxed channel
+            candidate at some overlap depth); NaN otherwise, when the refinement is off
+            (``crowding_gap = 0``) or when the estimate failed.
     """
 
     index: int
@@ -394,6 +424,30 @@ class Decomposition:
         """All thin parts: the parabolic corners, then the hyperbolic channels."""
         return (*self.corners, *self.channels)
 
+    def describe_piece(self, k: int) -> str:
+        """Thick piece ``k`` said in the user's terms, for messages.
+
+        E.g. ``"the part of the polygon through vertices 12 to 17 and 3 to 5 (around
+        (2.5, 1))"``: the runs of polygon vertices on the piece's boundary in the user's
+        numbering (:meth:`quadmesh.polygon.Polygon.user_vertex`, in the user's order) and
+        the centre of its largest inscribed disk in the user's coordinates.
+        """
+        piece = self.thick[int(k)]
+        return (
+            f"the part of the polygon through {_describe_runs(self.polygon, piece.source)} "
+            f"(around {self.polygon.user_point(piece.center)})"
+        )
+
+    def describe_channel(self, k: int) -> str:
+        """Channel ``k`` said in the user's terms: the narrow passage between its two wall
+        edges, in the user's numbering and coordinates."""
+        c = self.channels[int(k)]
+        poly = self.polygon
+        return (
+            f"the narrow passage between {poly.describe_edge(c.walls[0])} and "
+            f"{poly.describe_edge(c.walls[1])}"
+        )
+
 
 # --------------------------------------------------------------------------------------
 # helpers
@@ -401,6 +455,38 @@ class Decomposition:
 
 def _xy(z: np.ndarray) -> np.ndarray:
     return np.column_stack([z.real, z.imag])
+
+
+def _describe_runs(poly: Polygon, source: np.ndarray, max_runs: int = 4) -> str:
+    """``"vertices 12 to 17 and 3 to 5"``: maximal runs of consecutive polygon vertices among
+    ``source`` (piece order, −1 = not a polygon vertex) in the user's numbering and order."""
+    src = np.asarray(source)
+    runs: list[list[int]] = []
+    prev = -2
+    for v in src.tolist():
+        if v < 0:
+            prev = -2
+            continue
+        if runs and prev >= 0 and v == (prev + 1) % poly.n:
+            runs[-1].append(v)
+        else:
+            runs.append([v])
+        prev = v
+    if len(runs) > 1 and runs[0][0] == (runs[-1][-1] + 1) % poly.n and src[0] >= 0 and src[-1] >= 0:
+        runs[0] = runs.pop() + runs[0]  # the piece's vertex list started inside a run
+    if not runs:
+        return "no polygon vertex"
+    parts = []
+    for run in runs:
+        a, b = poly.user_vertex(run[0]), poly.user_vertex(run[-1])
+        if poly.reversed_input:
+            a, b = b, a
+        through = " (through 0)" if b < a else ""  # the run wraps past the user's vertex 0
+        parts.append(f"vertex {a}" if len(run) == 1 else f"vertices {a} to {b}{through}")
+    more = f" and {len(parts) - max_runs} more stretches" if len(parts) > max_runs else ""
+    parts = parts[:max_runs]
+    body = parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+    return body + more
 
 
 def _vertex_distances(z: np.ndarray, segs: np.ndarray, tree: shapely.STRtree) -> np.ndarray:
@@ -781,7 +867,7 @@ def _build_pieces(
             count += idx.size
             k = nxt
         if k != k0:
-            raise DecompositionError("boundary walk did not close: crosscuts cross each other")
+            raise DecompositionError("the cuts across the narrow passages cross each other")
         pieces.append((np.concatenate(verts), np.concatenate(src), cuts))
     return pieces
 
@@ -848,7 +934,17 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
             taken[k] = True
         chosen = [cands[k] for k in np.flatnonzero(taken)]
 
-    built = _assemble(z, chosen, m, opt)
+    try:
+        built = _assemble(z, chosen, m, opt)
+    except DecompositionError as exc:
+        walls = "; ".join(
+            f"{poly.describe_edge(c.wall1)} and {poly.describe_edge(c.wall2)}" for c in chosen[:3]
+        )
+        more = f" (and {len(chosen) - 3} more)" if len(chosen) > 3 else ""
+        raise DecompositionError(
+            f"{exc.args[0]}; the narrow passages lie between {walls}{more}: widening one of "
+            "them, or moving vertices away from its walls, avoids the cut"
+        ) from exc
     channels, raw, centres = built
     gaps = [float("nan")] * len(raw)
     if opt.crowding_gap > 0:
@@ -880,7 +976,13 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
     total = sum(p.area for p in thick) + sum(c.core_area for c in channels)
     if abs(total - poly.area) > 1e-9 * poly.area or any(p.area <= 0 for p in thick):
         raise DecompositionError(
-            f"thick pieces and channel cores do not tile the polygon (area {total} vs {poly.area})"
+            f"the cut-off narrow passages and the remaining parts do not add up to the polygon "
+            f"(area {total:.9g} against {poly.area:.9g}); a narrow passage between "
+            + " and ".join(
+                f"{poly.describe_edge(c.walls[0])} / {poly.describe_edge(c.walls[1])}"
+                for c in channels[:3]
+            )
+            + " was cut inconsistently"
         )
 
     # parabolic thin parts
@@ -890,7 +992,11 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
         where[p.source[idx], 0] = p.index
         where[p.source[idx], 1] = idx
     if np.any(where[:, 0] < 0):
-        raise DecompositionError("a polygon vertex lies in no thick piece (a core swallowed it)")
+        k = int(np.flatnonzero(where[:, 0] < 0)[0])
+        raise DecompositionError(
+            f"{poly.describe_vertex(k)} fell inside a narrow passage that was cut off; "
+            "the passage's walls pass too close to it"
+        )
     zn = np.roll(z, -1)
     zp = np.roll(z, 1)
     u_out = (zn - z) / np.abs(zn - z)
@@ -953,7 +1059,10 @@ def _assemble(
     polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
     if not all(p.is_valid for p in polys):
         bad = [k for k, p in enumerate(polys) if not p.is_valid]
-        raise DecompositionError(f"thick piece(s) {bad} are not simple polygons")
+        raise DecompositionError(
+            f"{len(bad)} of the parts left after cutting off the narrow passages would not be "
+            "simple polygons"
+        )
     centres = _centres(raw, channels, polys, opt.center_tol)
     return channels, raw, centres
 
@@ -1008,56 +1117,77 @@ def _refine(
     """
     channels, raw, centres = built
     nan = float("nan")
-    used = {(c.wall1, c.wall2) for c in chosen}
-    found, _ = _find_channels(
-        z, segs, tree, r, opt, max(opt.delta, opt.refine_delta), opt.refine_overlap, opt.refine_core
-    )
-    pool = [c for c in found if (c.wall1, c.wall2) not in used]
-    bands = [_band(z, c, m) for c in pool]
-    taken = [_band(z, c, m) for c in chosen]
-    keep = [
-        i for i, b in enumerate(bands) if b.is_valid and not any(_overlaps(b, t) for t in taken)
-    ]
-    pool = [pool[i] for i in keep]
-    bands = [bands[i] for i in keep]
-    for c in pool:
-        c.relaxed = True
     cache: dict[tuple[bytes, complex], float] = {}
-    hopeless: set[bytes] = set()
-    while True:
-        gaps = [nan] * len(raw)
-        if not pool:
-            return channels, raw, centres, gaps
-        polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
-        pts = shapely.points([shapely.get_coordinates(b.representative_point())[0] for b in bands])
-        bi, pk = shapely.STRtree(polys).query(pts, predicate="within")
-        members: dict[int, list[int]] = {}
-        for i, k in zip(bi.tolist(), pk.tolist(), strict=True):
-            members.setdefault(k, []).append(i)
-        for k in members:
-            v, ctr = raw[k][0], centres[k][0]
-            key = (v.tobytes(), ctr)
-            if key not in cache:
-                cache[key] = _min_gap(v, ctr)
-            gaps[k] = cache[key]
-        crowded = [
-            k for k in members if gaps[k] < opt.crowding_gap and raw[k][0].tobytes() not in hopeless
+    delta = max(opt.delta, opt.refine_delta)
+    depths = [opt.refine_overlap, *sorted((d for d in opt.refine_retry if d < opt.refine_overlap),
+                                          reverse=True)]  # fmt: skip
+    gaps = [nan] * len(raw)
+    for level, depth in enumerate(depths):
+        if level and all(
+            cache.get((v.tobytes(), centres[k][0]), nan) >= opt.crowding_gap
+            for k, (v, _, _) in enumerate(raw)
+        ):
+            break  # every piece was estimated and none is crowded: nothing to retry
+        # relaxed candidates at this overlap depth: a shorter depth admits shorter straight
+        # stretches (strip length ≥ 2·depth + refine_core); it is tried only after the deeper
+        # ones left a piece crowded or could not be estimated (no candidate inside it)
+        used = {(c.wall1, c.wall2) for c in chosen}
+        found, _ = _find_channels(z, segs, tree, r, opt, delta, depth, opt.refine_core)
+        pool = [c for c in found if (c.wall1, c.wall2) not in used]
+        bands = [_band(z, c, m) for c in pool]
+        taken = [_band(z, c, m) for c in chosen]
+        keep = [
+            i for i, b in enumerate(bands) if b.is_valid and not any(_overlaps(b, t) for t in taken)
         ]
-        if not crowded:
-            return channels, raw, centres, gaps
-        k = min(crowded, key=lambda i: gaps[i])
-        for i in sorted(members[k], key=lambda i: pool[i].ed):
-            try:
-                channels, raw, centres = _assemble(z, [*chosen, pool[i]], m, opt)
-            except DecompositionError:
-                continue
-            chosen = [*chosen, pool[i]]
-            rest = [j for j in range(len(pool)) if j != i and not _overlaps(bands[j], bands[i])]
-            pool = [pool[j] for j in rest]
-            bands = [bands[j] for j in rest]
-            break
-        else:
-            hopeless.add(raw[k][0].tobytes())
+        pool = [pool[i] for i in keep]
+        bands = [bands[i] for i in keep]
+        for c in pool:
+            c.relaxed = True
+        hopeless: set[bytes] = set()
+        while True:
+            gaps = [nan] * len(raw)
+            if not pool:
+                break
+            polys = [shapely.Polygon(_xy(v)) for v, _, _ in raw]
+            pts = shapely.points(
+                [shapely.get_coordinates(b.representative_point())[0] for b in bands]
+            )
+            bi, pk = shapely.STRtree(polys).query(pts, predicate="within")
+            members: dict[int, list[int]] = {}
+            for i, k in zip(bi.tolist(), pk.tolist(), strict=True):
+                members.setdefault(k, []).append(i)
+            for k in members:
+                v, ctr = raw[k][0], centres[k][0]
+                key = (v.tobytes(), ctr)
+                if key not in cache:
+                    cache[key] = _min_gap(v, ctr)
+                gaps[k] = cache[key]
+            crowded = [
+                k
+                for k in members
+                if gaps[k] < opt.crowding_gap and raw[k][0].tobytes() not in hopeless
+            ]
+            if not crowded:
+                break
+            k = min(crowded, key=lambda i: gaps[i])
+            for i in sorted(members[k], key=lambda i: pool[i].ed):
+                try:
+                    channels, raw, centres = _assemble(z, [*chosen, pool[i]], m, opt)
+                except DecompositionError:
+                    continue
+                chosen = [*chosen, pool[i]]
+                rest = [j for j in range(len(pool)) if j != i and not _overlaps(bands[j], bands[i])]
+                pool = [pool[j] for j in rest]
+                bands = [bands[j] for j in rest]
+                break
+            else:
+                hopeless.add(raw[k][0].tobytes())
+    # the gap estimate of every piece that was estimated (the last pass may not have looked
+    # at a piece that an earlier pass found uncrowded)
+    for k, (v, _, _) in enumerate(raw):
+        if np.isnan(gaps[k]):
+            gaps[k] = cache.get((v.tobytes(), centres[k][0]), nan)
+    return channels, raw, centres, gaps
 
 
 def _overlaps(a: shapely.Polygon, b: shapely.Polygon) -> bool:

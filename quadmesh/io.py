@@ -12,7 +12,8 @@ content):
   drawn.
 
 Meshes (:func:`write_mesh`, :func:`read_mesh`): JSON ``{"vertices": ..., "quads": ...}`` with
-0-based indices, and through meshio VTK, VTU, MSH, OBJ, PLY and Medit (:data:`MESH_FORMATS`).
+0-based indices (and ``"origin": [x, y]`` when the vertices are relative to it), and
+through meshio VTK, VTU, MSH, OBJ, PLY and Medit (:data:`MESH_FORMATS`).
 Every failure raises :class:`~quadmesh.errors.InputFormatError` naming the file.
 """
 
@@ -27,7 +28,14 @@ import numpy as np
 from .errors import InputFormatError, MeshVerificationError
 from .mesh import QuadMesh
 
-__all__ = ["MESH_FORMATS", "read_mesh", "read_polygon", "write_mesh", "write_polygon"]
+__all__ = [
+    "MESH_FORMATS",
+    "read_mesh",
+    "read_mesh_with_origin",
+    "read_polygon",
+    "write_mesh",
+    "write_polygon",
+]
 
 CURVE_SEGMENTS = 8
 """Number of straight segments that replace one SVG Bézier curve."""
@@ -356,10 +364,15 @@ def write_polygon(
     path.write_text(json.dumps(data, separators=(",", ":")) + "\n", encoding="utf-8")
 
 
-def write_mesh(path: str | Path, mesh: QuadMesh) -> None:
+def write_mesh(path: str | Path, mesh: QuadMesh, origin: complex = 0j) -> None:
     """Write ``mesh``: ``.json`` as ``{"vertices": [[x, y], ...], "quads": [[i, j, k, l], ...]}``
     (0-based); ``.vtk``, ``.vtu``, ``.msh`` (Gmsh 2.2), ``.obj``, ``.ply``, ``.mesh`` (Medit)
-    through meshio with z = 0. Other extensions raise :class:`InputFormatError`."""
+    through meshio with z = 0. Other extensions raise :class:`InputFormatError`.
+
+    ``origin``: the vertices are relative to this point (a mesh far from (0, 0), see
+    :attr:`quadmesh.result.MeshResult.mesh_origin`). JSON then also holds
+    ``"origin": [x, y]``; the other formats have no place for it and store the relative
+    coordinates only (the caller tells the user the origin)."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in MESH_FORMATS:
@@ -367,7 +380,11 @@ def write_mesh(path: str | Path, mesh: QuadMesh) -> None:
             f"{path}: unsupported mesh format {ext!r} (use {', '.join(MESH_FORMATS)})"
         )
     if ext == ".json":
-        data = {"vertices": mesh.vertices.tolist(), "quads": mesh.quads.tolist()}
+        data: dict = {}
+        if origin:
+            data["origin"] = [complex(origin).real, complex(origin).imag]
+        data["vertices"] = mesh.vertices.tolist()
+        data["quads"] = mesh.quads.tolist()
         path.write_text(json.dumps(data, separators=(",", ":")) + "\n", encoding="utf-8")
         return
     import meshio
@@ -384,10 +401,19 @@ def write_mesh(path: str | Path, mesh: QuadMesh) -> None:
 
 
 def read_mesh(path: str | Path) -> QuadMesh:
-    """Read a quad mesh written by :func:`write_mesh` (JSON or any meshio format).
+    """Read a quad mesh written by :func:`write_mesh` (JSON or any meshio format), with its
+    vertices as stored (relative to the file's ``"origin"`` when a JSON file has one; see
+    :func:`read_mesh_with_origin`).
 
     Only quad cells are kept; a file without quads raises :class:`InputFormatError`."""
+    return read_mesh_with_origin(path)[0]
+
+
+def read_mesh_with_origin(path: str | Path) -> tuple[QuadMesh, complex]:
+    """Read a quad mesh and the origin its vertices are relative to (JSON ``"origin"``,
+    0 when absent or for the other formats)."""
     path = Path(path)
+    origin = 0j
     if not path.is_file():
         raise _err(path, "no such file")
     if path.suffix.lower() == ".json":
@@ -397,6 +423,14 @@ def read_mesh(path: str | Path) -> QuadMesh:
             raise _err(path, f"invalid JSON ({exc})") from exc
         if not isinstance(data, dict) or "vertices" not in data or "quads" not in data:
             raise _err(path, 'expected a JSON object with "vertices" and "quads"')
+        if data.get("origin") is not None:
+            try:
+                ox, oy = (float(c) for c in data["origin"])
+            except (TypeError, ValueError) as exc:
+                raise _err(path, f'"origin" must be an [x, y] pair ({exc})') from exc
+            if not (np.isfinite(ox) and np.isfinite(oy)):
+                raise _err(path, '"origin" must be finite')
+            origin = complex(ox, oy)
         try:
             verts = np.asarray(data["vertices"], dtype=np.float64).reshape(-1, 2)
             quads = np.asarray(data["quads"], dtype=np.int64).reshape(-1, 4)
@@ -415,6 +449,6 @@ def read_mesh(path: str | Path) -> QuadMesh:
         verts = np.asarray(m.points[:, :2], dtype=np.float64)
         quads = np.vstack(blocks).astype(np.int64)
     try:
-        return QuadMesh(verts, quads)
+        return QuadMesh(verts, quads), origin
     except MeshVerificationError as exc:
         raise _err(path, str(exc)) from exc

@@ -10,10 +10,18 @@ paper promises (Bishop, "Optimal angle bounds for quadrilateral meshes", Theorem
 * every polygon corner is a mesh vertex;
 * every quad is positively oriented, strictly convex and non-degenerate;
 * the quads' areas add up to the polygon's area;
-* every *new* angle lies in [60°, 120°].  An *original* angle is the angle of a polygon corner
-  that the mesh leaves unsplit (the corner lies in a single quad); Theorem 1.1 keeps original
-  angles below 60° as they are, so those are exempt.  A corner split between several quads
-  consists of new angles only.
+* no two distinct vertices coincide or lie closer than :data:`COINCIDENT_RTOL` of the
+  polygon's diameter;
+* every *new* angle lies in [60°, 120°] up to the fixed :data:`ANGLE_TOL_DEG`.  An *original*
+  angle is the angle of a polygon corner that the mesh leaves unsplit (the corner lies in a
+  single quad); Theorem 1.1 keeps original angles below 60° as they are, so those are exempt.
+  A corner split between several quads consists of new angles only.
+
+Angles, orientation and convexity are computed per quad relative to the quad's own first
+vertex, in float64, from the stored coordinates, with fixed tolerances: the verdict is about
+the numbers a reader of the mesh gets, whatever the quad's size or its distance from (0, 0).
+A mesh stored relative to an origin (:attr:`quadmesh.result.MeshResult.mesh_origin`) is
+verified as stored, against the polygon translated by −origin (``verify(..., origin=...)``).
 
 Everything is vectorised: edges are matched with :func:`numpy.unique` on integer keys, so a
 mesh of two million quads verifies in a few seconds.
@@ -26,24 +34,61 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshVerificationError
-from .geometry import angle_rounding_slack_deg, quad_angles_deg, quad_signed_areas
+from .geometry import angle_rounding_slack_deg, quad_signed_areas
 from .polygon import Polygon, validate_polygon
 
-__all__ = ["QuadMesh", "QualityReport", "VerificationReport"]
+__all__ = [
+    "ANGLE_TOL_DEG",
+    "COINCIDENT_RTOL",
+    "QuadMesh",
+    "QualityReport",
+    "VerificationReport",
+    "finalize_mesh",
+    "local_quad_angles_deg",
+]
 
-#: Slack (degrees) on the bounds 60° and 120° for rounding: corners that are exactly 60° or
-#: 120° by construction (Mesh 1 and Mesh 2 of the vertex sectors, the spokes of the inner
-#: triangles) come out within ~1e-8° of the bound after floating-point placement.
-ANGLE_TOL_DEG = 1e-6
+#: Fixed slack (degrees) on the bounds 60° and 120°, the same for every quad whatever its size
+#: or position. Corners that are exactly 60° or 120° by construction (Mesh 1 and Mesh 2 of the
+#: vertex sectors, the spokes of the inner triangles; typically three quads at 120° around a
+#: vertex) cannot be stored exactly: float64 coordinates ~|z| move the angle of a quad with
+#: shortest edge ℓ by up to about ε·|z|/ℓ rad, and no choice of rounding helps when the angles
+#: around a vertex are all at the bound. On the 29 bundled examples that reads up to 3.7e-6°
+#: off (quads down to ~1e-9 of the diameter); 1e-5° accepts all of them, while a polygon with
+#: features below ~1e-9 of its diameter is refused.
+ANGLE_TOL_DEG = 1e-5
+
+#: Two distinct vertices closer than this fraction of the polygon's diameter are reported.
+COINCIDENT_RTOL = 1e-12
 
 ANGLE_MIN = 60.0
 ANGLE_MAX = 120.0
 _MAX_EXAMPLES = 5
 _NEXT = np.array([1, 2, 3, 0])
+_PREV = np.array([3, 0, 1, 2])
 
 
-def _fmt_pt(p: complex) -> str:
+def _fmt_pt(p: complex, origin: complex = 0j) -> str:
+    """Readable point; ``origin`` is added first (points of a mesh stored relative to it).
+    Far from (0, 0) (a coordinate of 1e4 or more) with 15 digits, so that points tell apart."""
+    p = complex(p) + origin
+    if max(abs(p.real), abs(p.imag)) >= 1e4:
+        return f"({p.real:.15g}, {p.imag:.15g})"
     return f"({p.real:.6g}, {p.imag:.6g})"
+
+
+def local_quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """(Q, 4) corner angles in degrees of the quads of complex vertices ``z``, each quad
+    taken relative to its own first vertex (subtracted before the edge vectors are formed).
+
+    Corner k is at ``quads[:, k]``; the angle is measured counter-clockwise from the edge to
+    the next corner to the edge to the previous one, in [0°, 360°): the interior angle of a
+    counter-clockwise quad (a reflex or clockwise corner reads above 180°)."""
+    c = z[quads]
+    c = c - c[:, :1]
+    e = c[:, _NEXT] - c
+    ang = np.angle(-e[:, _PREV] * np.conj(e))
+    ang[ang < 0] += 2 * np.pi
+    return np.degrees(ang, out=ang)
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,12 +301,15 @@ class QuadMesh:
         The angle at corner k is measured counter-clockwise from the edge to the next corner
         to the edge to the previous one, so it lies in (0°, 360°) and is the interior angle
         of a counter-clockwise quad (a reflex or clockwise corner gives an angle above 180°).
+        Each quad is taken relative to its own first vertex (:func:`local_quad_angles_deg`).
         """
-        return quad_angles_deg(self._z, self.quads)
+        return local_quad_angles_deg(self._z, self.quads)
 
     def _edge_vectors(self) -> np.ndarray:
-        """(Q, 4) complex edge vectors: edge k goes from corner k to corner k + 1."""
+        """(Q, 4) complex edge vectors: edge k goes from corner k to corner k + 1 (each quad
+        relative to its first corner)."""
         c = self._corners()
+        c = c - c[:, :1]
         return c[:, _NEXT] - c
 
     def areas(self) -> np.ndarray:
@@ -299,15 +347,15 @@ class QuadMesh:
         corners = None if poly is None else self._match_corners(poly)[0]
         return ~self._exempt_mask(self.angles(), corners)
 
-    def angle_slack(self, angle_tol: float = ANGLE_TOL_DEG) -> np.ndarray:
-        """(Q, 1) slack in degrees on the bounds 60° and 120° for each quad.
+    def angle_slack(self, angle_tol: float = 0.0) -> np.ndarray:
+        """(Q, 1) how far (degrees) float64 storage can move each quad's angles, plus
+        ``angle_tol``: a diagnostic, not an allowance (:meth:`verify` uses the fixed
+        :data:`ANGLE_TOL_DEG` only).
 
-        ``angle_tol`` plus the precision the stored coordinates allow: a vertex stored in
-        float64 is off by up to ε·|z|, which moves an angle of a quad whose shortest edge is ℓ
-        by up to about 2ε·|z|/ℓ radians (ε = machine epsilon). A corner constructed at exactly
-        60° or 120° (Mesh 1 and Mesh 2 of the vertex sectors, the spokes of T_i) therefore
-        reads slightly outside the bound when the quad is tiny compared with its distance from
-        the origin; this slack accepts exactly that and nothing more (8ε·|z|/ℓ, a 4× margin).
+        A vertex stored in float64 is off by up to ε·|z|, which moves an angle of a quad whose
+        shortest edge is ℓ by up to about 2ε·|z|/ℓ radians (ε = machine epsilon); this returns
+        8ε·|z|/ℓ (a 4× margin). A corner constructed at exactly 60° or 120° reads up to that
+        far outside the bound; :meth:`verify` names it when a refused angle is within it.
         """
         return (angle_tol + angle_rounding_slack_deg(self._z, self.quads))[:, None]
 
@@ -333,13 +381,11 @@ class QuadMesh:
     ) -> QualityReport:
         exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
-        # angles within the rounding slack of 60°/120° belong to the bins inside the range
-        slack = np.broadcast_to(self.angle_slack(angle_tol), ang.shape)[~exempt]
-        binned = np.where(np.abs(new - 60.0) <= slack, 60.0, new)
-        binned = np.where(np.abs(binned - 120.0) <= slack, 120.0 - 1e-9, binned)
+        # angles within the fixed tolerance of 60°/120° belong to the bins inside the range
+        binned = np.where(np.abs(new - 60.0) <= angle_tol, 60.0, new)
+        binned = np.where(np.abs(binned - 120.0) <= angle_tol, 120.0 - 1e-9, binned)
         hist, edges = np.histogram(binned, bins=36, range=(0.0, 180.0))
-        tol = self.angle_slack(angle_tol)
-        bad = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
+        bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
         bad &= ~exempt
         dev = np.where(exempt, 0.0, np.abs(ang - 90.0)).max(axis=1) if ang.size else ang[:, 0]
         k = min(10, dev.size)
@@ -428,20 +474,34 @@ class QuadMesh:
         angle_tol: float = ANGLE_TOL_DEG,
         area_rtol: float = 1e-9,
         dist_rtol: float = 1e-9,
+        coincident_rtol: float = COINCIDENT_RTOL,
+        origin: complex = 0j,
     ) -> VerificationReport:
         """Check that this mesh is a valid angle-bounded quad mesh of ``polygon``.
 
+        Every quantity is computed from the stored coordinates in float64, each quad relative
+        to its own first vertex, with fixed tolerances (none grows as quads shrink or with
+        the distance from (0, 0)).
+
         Args:
             polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
-            angle_tol: slack in degrees on the bounds 60° and 120°.
+            angle_tol: fixed slack in degrees on the bounds 60° and 120°.
             area_rtol: allowed relative difference of total quad area and polygon area.
             dist_rtol: distance (relative to the polygon's diameter) within which a boundary
                 vertex counts as lying on a polygon side, and a polygon corner as a vertex.
+            coincident_rtol: distinct vertices closer than this fraction of the diameter are
+                a problem.
+            origin: the mesh's vertices are relative to this point (the polygon is given in
+                absolute coordinates and is translated by −origin); messages print absolute
+                coordinates.
 
         Returns:
             A :class:`VerificationReport`; ``ok`` is True when nothing is wrong.
         """
         poly = validate_polygon(polygon)
+        origin = complex(origin)
+        if origin:
+            poly = validate_polygon(poly.z - origin)
         problems: list[str] = []
         warnings: list[str] = []
         z = self._z
@@ -479,6 +539,7 @@ class QuadMesh:
         if not used.all():
             unused = np.flatnonzero(~used)
             warnings.append(f"{unused.size} vertices belong to no quad, e.g. vertex {unused[0]}")
+        problems += self._coincident(coincident_rtol * diam, origin)
         # --- orientation, convexity, degeneracy
         min_edge = np.abs(self._edge_vectors()).min(axis=1)
         degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
@@ -503,7 +564,7 @@ class QuadMesh:
             k = int(np.argmax(ang[i[0]]))
             problems.append(
                 f"not strictly convex: {i.size} quads, e.g. quad {i[0]} has an angle of "
-                f"{ang[i[0], k]:.4g}° at vertex {q[i[0], k]} {_fmt_pt(z[q[i[0], k]])}"
+                f"{ang[i[0], k]:.4g}° at vertex {q[i[0], k]} {_fmt_pt(z[q[i[0], k]], origin)}"
             )
 
         # --- conformity: every directed edge once, every undirected edge in at most two quads
@@ -557,7 +618,7 @@ class QuadMesh:
             i0 = fv[np.flatnonzero(dup)[0]]
             problems.append(
                 f"crack: {int(dup.sum())} vertices of free edges share their position with "
-                f"another, e.g. vertex {i0} at {_fmt_pt(z[i0])}"
+                f"another, e.g. vertex {i0} at {_fmt_pt(z[i0], origin)}"
             )
 
         # --- polygon corners and boundary edges
@@ -566,9 +627,9 @@ class QuadMesh:
         if missing.size:
             problems.append(
                 f"corner: {missing.size} polygon corners are not mesh boundary vertices, e.g. "
-                f"corner {missing[0]} at {_fmt_pt(poly.z[missing[0]])}"
+                f"corner {missing[0]} at {_fmt_pt(poly.z[missing[0]], origin)}"
             )
-        problems += self._check_boundary(poly, corner_v, ba, bb, tol)
+        problems += self._check_boundary(poly, corner_v, ba, bb, tol, origin)
 
         # --- area
         total = float(areas.sum())
@@ -581,16 +642,25 @@ class QuadMesh:
 
         # --- angles
         exempt = self._exempt_mask(ang, corner_v)
-        tol = self.angle_slack(angle_tol)
-        bad = ((ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)) & ~exempt
+        bad = ((ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)) & ~exempt
         if bad.any():
             bq, bk = np.nonzero(bad)
-            w = np.argmax(np.abs(ang[bq, bk] - 90.0))
-            problems.append(
-                f"angle: {bq.size} new angles outside [60°, 120°] in {np.unique(bq).size} quads; "
-                f"worst {ang[bq[w], bk[w]]:.12g}° in quad {bq[w]} at vertex {q[bq[w], bk[w]]} "
-                f"{_fmt_pt(z[q[bq[w], bk[w]]])}"
+            miss = np.maximum(ANGLE_MIN - ang[bq, bk], ang[bq, bk] - ANGLE_MAX)
+            w = int(np.argmax(miss))
+            qw, vw = int(bq[w]), int(q[bq[w], bk[w]])
+            edge = float(np.abs(self._edge_vectors()[qw]).min())
+            msg = (
+                f"angle: {bq.size} new angles outside [60°, 120°] in {np.unique(bq).size} quads "
+                f"(by more than {angle_tol:g}°); worst {ang[bq[w], bk[w]]:.12g}° in quad {qw} "
+                f"at vertex {vw} {_fmt_pt(z[vw], origin)}, shortest edge {edge:.3g}"
             )
+            rounding = float(angle_rounding_slack_deg(z, q[qw : qw + 1])[0])
+            if miss[w] <= rounding:
+                msg += (
+                    f" ({edge / diam:.2g} of the polygon's diameter: float64 coordinates "
+                    f"there move its angles by up to {rounding:.2g}°)"
+                )
+            problems.append(msg)
         return self._report(
             problems,
             warnings,
@@ -603,6 +673,24 @@ class QuadMesh:
             ang,
             areas,
         )
+
+    def _coincident(self, r: float, origin: complex = 0j) -> list[str]:
+        """Problems for distinct vertices closer than ``r`` (coincident or nearly so)."""
+        from scipy.spatial import cKDTree
+
+        if self.n_vertices < 2:
+            return []
+        pairs = cKDTree(self.vertices).query_pairs(r, output_type="ndarray")
+        if pairs.size == 0:
+            return []
+        d = np.abs(self._z[pairs[:, 0]] - self._z[pairs[:, 1]])
+        k = int(np.argmin(d))
+        i, j = int(pairs[k, 0]), int(pairs[k, 1])
+        return [
+            f"coincident vertices: {pairs.shape[0]} pairs of distinct vertices lie within "
+            f"{r:.3g} of each other, e.g. vertices {i} and {j} at {_fmt_pt(self._z[i], origin)} "
+            f"(distance {d[k]:.3g})"
+        ]
 
     def _report(
         self,
@@ -632,7 +720,13 @@ class QuadMesh:
         )
 
     def _check_boundary(
-        self, poly: Polygon, corner_v: np.ndarray, ba: np.ndarray, bb: np.ndarray, tol: float
+        self,
+        poly: Polygon,
+        corner_v: np.ndarray,
+        ba: np.ndarray,
+        bb: np.ndarray,
+        tol: float,
+        origin: complex = 0j,
     ) -> list[str]:
         """Problems with the free edges (a, b): each must lie on a polygon side, in the side's
         direction, and the free edges of each side must chain from one corner to the next."""
@@ -665,7 +759,7 @@ class QuadMesh:
         # free edges inside the domain: holes, cracks, hanging vertices
         off = np.flatnonzero(~on)
         if off.size:
-            problems += self._describe_inner_free_edges(poly, ba[off], bb[off], tol)
+            problems += self._describe_inner_free_edges(poly, ba[off], bb[off], tol, origin)
 
         fwd = on & (tb > ta)
         back = np.flatnonzero(on & ~fwd)
@@ -690,7 +784,7 @@ class QuadMesh:
             for i in np.flatnonzero(bad_start)[:_MAX_EXAMPLES]:
                 (gaps if t0[i] > ttol[i] else cracks).append(
                     f"side {s[i]} starts at t={t0[i]:.6g} instead of at its corner "
-                    f"{_fmt_pt(pz[s[i]])}"
+                    f"{_fmt_pt(pz[s[i]], origin)}"
                 )
             nb = np.count_nonzero(bad_start)
             end_v = corner_v[(s + 1) % n]
@@ -698,7 +792,7 @@ class QuadMesh:
             for i in np.flatnonzero(bad_end)[:_MAX_EXAMPLES]:
                 (gaps if t1[i] < 1 - ttol[i] else cracks).append(
                     f"side {s[i]} ends at t={t1[i]:.6g} instead of at its corner "
-                    f"{_fmt_pt(pz[(s[i] + 1) % n])}"
+                    f"{_fmt_pt(pz[(s[i] + 1) % n], origin)}"
                 )
             nb += np.count_nonzero(bad_end)
             # consecutive edges on one side
@@ -714,7 +808,7 @@ class QuadMesh:
                 else:
                     cracks.append(
                         f"side {s[i]}: vertices {b[i]} and {a[i + 1]} are distinct at the same "
-                        f"point {_fmt_pt(z[b[i]])}"
+                        f"point {_fmt_pt(z[b[i]], origin)}"
                     )
             nb += brk.size
             for kind, lst in (("gap", gaps), ("overlap", overlaps), ("crack", cracks)):
@@ -728,12 +822,12 @@ class QuadMesh:
             k = uncovered[0]
             problems.append(
                 f"boundary gap: {uncovered.size} polygon sides carry no mesh edge, e.g. side {k} "
-                f"from {_fmt_pt(pz[k])} to {_fmt_pt(pz[(k + 1) % n])}"
+                f"from {_fmt_pt(pz[k], origin)} to {_fmt_pt(pz[(k + 1) % n], origin)}"
             )
         return problems
 
     def _describe_inner_free_edges(
-        self, poly: Polygon, a: np.ndarray, b: np.ndarray, tol: float
+        self, poly: Polygon, a: np.ndarray, b: np.ndarray, tol: float, origin: complex = 0j
     ) -> list[str]:
         """Explain free edges that are not on a polygon side: hanging vertices (a vertex inside
         the edge of a neighbour), boundary edges off the polygon (an end on the boundary) and
@@ -766,7 +860,7 @@ class QuadMesh:
             explained |= is_h[a] | is_h[b]
             problems.append(
                 f"hanging vertex (T-junction): {np.unique(hv).size} vertices lie inside an edge of "
-                f"a neighbouring quad, e.g. vertex {hv[0]} at {_fmt_pt(z[hv[0]])} on edge "
+                f"a neighbouring quad, e.g. vertex {hv[0]} at {_fmt_pt(z[hv[0]], origin)} on edge "
                 f"({a[he[0]]}, {b[he[0]]})"
             )
         ring = shapely.linearrings(poly.vertices)
@@ -780,14 +874,15 @@ class QuadMesh:
             problems.append(
                 f"boundary edge off the polygon: {rest.size}{more} free edges (in one quad) leave "
                 f"the polygon boundary, e.g. edge ({a[i]}, {b[i]}) whose vertex {far} at "
-                f"{_fmt_pt(z[far])} is {dist[far]:.3g} away from it"
+                f"{_fmt_pt(z[far], origin)} is {dist[far]:.3g} away from it"
             )
         rest = np.flatnonzero(~explained & ~touches)
         if rest.size:
             i = rest[0]
             problems.append(
                 f"hole: {rest.size}{more} free edges (in one quad) lie inside the domain, e.g. "
-                f"edge ({a[i]}, {b[i]}) from {_fmt_pt(z[a[i]])} to {_fmt_pt(z[b[i]])}"
+                f"edge ({a[i]}, {b[i]}) from {_fmt_pt(z[a[i]], origin)} "
+                f"to {_fmt_pt(z[b[i]], origin)}"
             )
         return problems
 
@@ -800,3 +895,47 @@ class QuadMesh:
                 "mesh verification failed:\n" + "\n".join(f"- {p}" for p in report.problems)
             )
         return report
+
+
+def finalize_mesh(
+    polygon: object,
+    z_local: np.ndarray,
+    quads: np.ndarray,
+    origin: complex = 0j,
+    *,
+    angle_tol: float = ANGLE_TOL_DEG,
+) -> tuple[QuadMesh, complex, VerificationReport]:
+    """The mesh handed to the user, verified as it will be stored.
+
+    ``z_local`` are complex vertices relative to ``origin`` (the exact translation under which
+    a polygon far from (0, 0) was meshed). The absolute coordinates ``z_local + origin`` are
+    verified first; when they pass, they are returned with mesh origin 0. When they do not
+    (far from (0, 0) float64 cannot hold the angles of small quads) and ``origin`` is not 0,
+    the relative coordinates are verified against the polygon translated by −origin and, when
+    they pass, returned with mesh origin ``origin``: the mesh's absolute positions are its
+    vertices plus that origin.
+
+    Returns:
+        ``(mesh, mesh_origin, report)`` with ``report.ok`` True.
+
+    Raises:
+        MeshVerificationError: neither form passes; the message lists the problems (with
+        absolute coordinates).
+    """
+    poly = validate_polygon(polygon)
+    z_local = np.asarray(z_local, dtype=np.complex128)
+    origin = complex(origin)
+    z = z_local + origin if origin else z_local
+    mesh = QuadMesh.from_complex(z, quads)
+    report = mesh.verify(poly, angle_tol=angle_tol)
+    if report.ok:
+        return mesh, 0j, report
+    if origin:
+        local = QuadMesh.from_complex(z_local, quads)
+        local_report = local.verify(poly, angle_tol=angle_tol, origin=origin)
+        if local_report.ok:
+            return local, origin, local_report
+        report = local_report
+    raise MeshVerificationError(
+        "the assembled mesh failed verification: " + "; ".join(report.problems[:5])
+    )

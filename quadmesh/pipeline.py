@@ -25,18 +25,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import (
-    Cancelled,
-    ConformalMapError,
-    DiskConstructionError,
-    MeshVerificationError,
-    ThinPartError,
-)
+from .errors import Cancelled, ConformalMapError, DiskConstructionError, ThinPartError
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
 from .result import MeshOptions, MeshResult, ThinPartResult
 from .thick import (
-    ANGLE_TOL,
     PieceWork,
     collect_angle_faults,
     disk_and_image,
@@ -124,7 +117,8 @@ def mesh_polygon(
         MeshVerificationError: the assembled mesh failed verification (never returned).
     """
     from .decompose import DecomposeOptions, decompose
-    from .mesh import QuadMesh
+    from .mesh import finalize_mesh
+    from .refine import refine_quads
 
     options = options or MeshOptions()
     timings: dict[str, float] = {}
@@ -138,7 +132,7 @@ def mesh_polygon(
     t0 = time.perf_counter()
     poly: Polygon = validate_polygon(polygon)
     origin = _working_origin(poly)
-    work_poly = validate_polygon(poly.z - origin) if origin else poly
+    work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
     report("decompose", 0.05)
@@ -147,7 +141,7 @@ def mesh_polygon(
     timings["decompose"] = time.perf_counter() - t0
 
     # A polygon that stays one crowded thick piece (a pen stroke, a letter, a river) is a
-    # corridor: meshed by straight cells, no conformal map (thin/corridor.py).
+    # corridor: meshed by a ladder of straight cells, without a conformal map.
     report("corridor", 0.08)
     t0 = time.perf_counter()
     corridor, corridor_why = whole_corridor(dec)
@@ -160,76 +154,7 @@ def mesh_polygon(
         dec = replace(dec, thick=(), corners=())
     else:
         try:
-            work: list[PieceWork] = []
-            for i, piece in enumerate(dec.thick):
-                report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
-                work.append(prepare_piece(piece, options, timings))
-
-            # One (n, depth step) for all pieces: both sides of a channel must carry the same
-            # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
-            # converge like O(1/n)); Carleson images out of range -> halve the depth step.
-            n, step, dmax = options.n, options.depth_step, options.depth_max
-            fixes: list[str] = []
-            while True:  # thin parts failing -> raise n and rebuild
-                while True:
-                    disks = []
-                    bad_kind: dict[str, tuple[float, float, int]] = {}
-                    for i, pd in enumerate(work):
-                        report("disk mesh", 0.4 + 0.3 * i / len(work))
-                        disk, image = disk_and_image(pd, n, step, dmax, options, timings)
-                        disks.append((disk, image))
-                        collect_angle_faults(pd, disk, image, bad_kind)
-                    if not bad_kind:
-                        break
-                    what = ", ".join(
-                        f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
-                    )
-                    if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
-                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                        fixes.append(f"{what}: n raised to {n}")
-                    elif options.adaptive and step > MIN_DEPTH_STEP:
-                        step = max(step / 2, MIN_DEPTH_STEP)
-                        dmax = None  # and the notes' full depth log(8/step) + 2
-                        fixes.append(f"{what}: depth step lowered to {step:g}")
-                    elif options.adaptive and n < options.max_n:
-                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                        fixes.append(f"{what}: n raised to {n}")
-                    else:
-                        raise DiskConstructionError(
-                            "pushed-forward disk mesh angles out of [60°, 120°]: "
-                            f"{what} (n = {n}, depth "
-                            f"step {step:g}); the conformal map distorts the disk mesh too much"
-                        )
-
-                asm = Assembler()
-                pieces, gam = glue_thick_pieces(asm, work, disks, dec, n, step, tuple(fixes))
-                t0 = time.perf_counter()
-                try:
-                    thin = glue_thin_parts(asm, dec, gam, options, report)
-                except ThinPartError as exc:
-                    # a larger n puts more vertices on every crosscut (3·2n + 1 on its pentagon
-                    # edges), so the thin parts' chords get shorter and flatter
-                    timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
-                    # Near a reflex vertex one hyperbolic unit of a crosscut's Carleson part
-                    # spans up
-                    # to ~1 rad of polar angle about the vertex (quasi-hyperbolic metric |dz|/r), so
-                    # only a finer depth sequence puts more crosscut vertices there; n refines only
-                    # the pentagon part (measured on a 331° stroke end and a 1:100 V-slit).
-                    if not options.adaptive:
-                        raise
-                    if step > MIN_DEPTH_STEP:
-                        step = max(step / 2, MIN_DEPTH_STEP)
-                        fixes.append(f"{exc.args[0]}: depth step lowered to {step:g}")
-                    elif n < options.max_n:
-                        n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
-                        fixes.append(f"{exc.args[0]}: n raised to {n}")
-                    else:
-                        raise
-                    continue
-                timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
-                break
-
-
+            asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings)
         except (ConformalMapError, DiskConstructionError) as exc:
             if corridor_why:
                 raise type(exc)(
@@ -237,26 +162,18 @@ def mesh_polygon(
                     f"{corridor_why}"
                 ) from exc
             raise
+
     report("verify", 0.9)
     t0 = time.perf_counter()
-    z = asm.vertices() + origin
+    z = asm.vertices()  # relative to the working origin
     quads, source = asm.all_quads()
-    mesh = QuadMesh(np.column_stack([z.real, z.imag]), quads)
-    verification = mesh.verify(poly, angle_tol=ANGLE_TOL)
+    if options.refine > 1:
+        z, quads, parent = refine_quads(z, quads, options.refine, origin=origin)
+        source = source[parent]
+    # verified as it will be stored: absolute coordinates, or relative to origin when far
+    # from (0, 0) float64 cannot hold the angles (MeshResult.mesh_origin)
+    mesh, mesh_origin, verification = finalize_mesh(poly, z, quads, origin)
     timings["verify"] = time.perf_counter() - t0
-    if not verification.ok:
-        far = ""
-        if origin:
-            # the stages ran at the working origin; the vertices are stored far from 0
-            res = np.finfo(float).eps * abs(origin) / poly.diameter
-            far = (
-                f" (the polygon lies {abs(origin) / poly.diameter:.3g} diameters from (0, 0), "
-                f"where float64 coordinates resolve only {res:.1e} of its diameter: translate "
-                "it towards the origin)"
-            )
-        raise MeshVerificationError(
-            "the assembled mesh failed verification: " + "; ".join(verification.problems[:5]) + far
-        )
     quality = verification.quality
     report("done", 1.0)
     return MeshResult(
@@ -271,4 +188,78 @@ def mesh_polygon(
         timings=timings,
         quad_source=source,
         origin=origin,
+        mesh_origin=mesh_origin,
     )
+
+
+def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]):
+    """Bishop's construction proper: every thick piece's map, disk mesh and push-forward, then
+    the thin parts glued onto them, in the adaptive loop (one (n, depth step) for all pieces).
+    Returns the assembler, the thick-piece results and the thin-part results."""
+    work: list[PieceWork] = []
+    for i, piece in enumerate(dec.thick):
+        report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
+        work.append(prepare_piece(piece, options, timings))
+
+    # One (n, depth step) for all pieces: both sides of a channel must carry the same
+    # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
+    # converge like O(1/n)); Carleson images out of range -> halve the depth step.
+    n, step, dmax = options.n, options.depth_step, options.depth_max
+    fixes: list[str] = []
+    while True:  # thin parts failing -> raise n and rebuild
+        while True:
+            disks = []
+            bad_kind: dict[str, tuple[float, float, int]] = {}
+            for i, pd in enumerate(work):
+                report("disk mesh", 0.4 + 0.3 * i / len(work))
+                disk, image = disk_and_image(pd, n, step, dmax, options, timings)
+                disks.append((disk, image))
+                collect_angle_faults(pd, disk, image, bad_kind)
+            if not bad_kind:
+                break
+            what = ", ".join(
+                f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
+            )
+            if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
+                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                fixes.append(f"{what}: n raised to {n}")
+            elif options.adaptive and step > MIN_DEPTH_STEP:
+                step = max(step / 2, MIN_DEPTH_STEP)
+                dmax = None  # and the notes' full depth log(8/step) + 2
+                fixes.append(f"{what}: depth step lowered to {step:g}")
+            elif options.adaptive and n < options.max_n:
+                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                fixes.append(f"{what}: n raised to {n}")
+            else:
+                raise DiskConstructionError(
+                    f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
+                    f"step {step:g}); the conformal map distorts the disk mesh too much"
+                )
+
+        asm = Assembler()
+        pieces, gam = glue_thick_pieces(asm, work, disks, dec, n, step, tuple(fixes))
+        t0 = time.perf_counter()
+        try:
+            thin = glue_thin_parts(asm, dec, gam, options, report)
+        except ThinPartError as exc:
+            # a larger n puts more vertices on every crosscut (3·2n + 1 on its pentagon
+            # edges), so the thin parts' chords get shorter and flatter
+            timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+            # Near a reflex vertex one hyperbolic unit of a crosscut's Carleson part spans up
+            # to ~1 rad of polar angle about the vertex (quasi-hyperbolic metric |dz|/r), so
+            # only a finer depth sequence puts more crosscut vertices there; n refines only
+            # the pentagon part (measured on a 331° stroke end and a 1:100 V-slit).
+            if not options.adaptive:
+                raise
+            if step > MIN_DEPTH_STEP:
+                step = max(step / 2, MIN_DEPTH_STEP)
+                fixes.append(f"{exc.args[0]}: depth step lowered to {step:g}")
+            elif n < options.max_n:
+                n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
+                fixes.append(f"{exc.args[0]}: n raised to {n}")
+            else:
+                raise
+            continue
+        timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
+        break
+    return asm, pieces, thin

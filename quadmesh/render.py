@@ -773,6 +773,11 @@ def build_layer(
         # these stages ran on the polygon translated by −origin (MeshResult.origin)
         for p in parts:
             p.mesh.translate((origin.real, origin.imag, 0.0), inplace=True)
+    shift = complex(getattr(result, "mesh_origin", 0j) or 0j)
+    if shift and name in ("final_mesh", "bad_quads"):
+        # the mesh is stored relative to mesh_origin (a polygon far from (0, 0))
+        for p in parts:
+            p.mesh.translate((shift.real, shift.imag, 0.0), inplace=True)
     return LayerGeometry(name, "plane", parts)
 
 

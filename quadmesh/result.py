@@ -7,6 +7,8 @@ viewer, the command line and the tests read one object.
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -58,10 +60,12 @@ class MeshOptions:
             trial, ~0.3 s per piece). Only for pieces with at most 16 arcs and prevertex gaps
             ≥ 1e-6; 1 = off.
         channel_delta: extremal-distance threshold δ below which a channel is a hyperbolic
-            thin part (CONFORMAL.md §2.3).
+            thin part (CONFORMAL.md §2.3); below 3/4, so that the overlap depth 1/(4δ) + 1
+            stays below 1/δ.
         sector_ratio: λ, radius of the vertex sector over the crosscut's distance from the
             vertex (THIN.md §A.4).
-        conformal_tol: target residual of the Schwarz–Christoffel parameter problem.
+        conformal_tol: target residual of the Schwarz–Christoffel parameter problem, in
+            [1e-14, 1e-4].
         adaptive: raise n (2 → 3 → 4 → 6) for a thick piece whose pushed-forward quads
             leave [60°, 120°], and redo it.
         max_n: largest n the adaptive loop tries.
@@ -69,6 +73,13 @@ class MeshOptions:
             pushed-forward quads that leave [60°, 120°] by a small fraction of their edges
             (:func:`quadmesh.repair.repair_angles`; topology, boundary and the crosscut
             vertices shared with thin parts are untouched). Off: the paper's remedy only.
+        refine: split every quad of the verified construction into a refine × refine grid
+            of bilinear sub-quads (:func:`quadmesh.refine.refine_quads`; 1 = off). The grid
+            points on an edge shared by two quads are made once, so the mesh stays
+            conforming, and a convex quad's bilinear sub-quads have their angles within the
+            range of its corner angles and their supplements, so [60°, 120°] survives. Not
+            available when the polygon has a corner below 60° (the quad keeping it would give
+            new angles of about that angle).
     """
 
     n: int = 2
@@ -85,30 +96,50 @@ class MeshOptions:
     adaptive: bool = True
     max_n: int = 6
     repair: bool = True
+    refine: int = 1
 
     def __post_init__(self) -> None:
-        if int(self.n) != self.n or self.n < 1:
-            raise ValueError(f"n must be a positive integer, got {self.n}")
-        if not 0 < self.depth_step <= 1:
+        def real(name: str) -> float:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+                raise ValueError(f"{name} must be a finite number, got {v!r}")
+            return float(v)
+
+        def integer(name: str, low: int) -> int:
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or v != int(v) or v < low:
+                rule = "a positive integer" if low == 1 else f"an integer of at least {low}"
+                raise ValueError(f"{name} must be {rule}, got {v!r}")
+            return int(v)
+
+        integer("n", 1)
+        if not 0 < real("depth_step") <= 1:
             raise ValueError(f"depth_step must be in (0, 1], got {self.depth_step}")
-        if self.depth_max is not None and not 1.0 <= self.depth_max <= 12.0:
+        if self.depth_max is not None and not 1.0 <= real("depth_max") <= 12.0:
             raise ValueError(f"depth_max must be in [1, 12], got {self.depth_max}")
-        if not 1.0 <= self.depth_growth <= 4.0:
+        if not 1.0 <= real("depth_growth") <= 4.0:
             raise ValueError(f"depth_growth must be in [1, 4], got {self.depth_growth}")
-        if not 0 < self.inner_height <= 2:
+        if not 0 < real("inner_height") <= 2:
             raise ValueError(f"inner_height must be in (0, 2], got {self.inner_height}")
-        if self.crosscut_ratio < 4:
+        if real("crosscut_ratio") < 4:
             raise ValueError(f"crosscut_ratio must be at least 4, got {self.crosscut_ratio}")
-        if self.lemma_A <= 1:
+        if real("lemma_A") <= 1:
             raise ValueError(f"lemma_A must exceed 1, got {self.lemma_A}")
-        if int(self.rotations) != self.rotations or self.rotations < 1:
-            raise ValueError(f"rotations must be a positive integer, got {self.rotations}")
-        if not 0 < self.channel_delta < 1:
-            raise ValueError(f"channel_delta must be in (0, 1), got {self.channel_delta}")
-        if not 0 < self.sector_ratio < 1:
+        integer("rotations", 1)
+        # the decomposition's overlap depth 1/(4δ) + 1 must stay below 1/δ: δ < 3/4
+        if not 0 < real("channel_delta") < 0.75:
+            raise ValueError(f"channel_delta must be in (0, 0.75), got {self.channel_delta}")
+        if not 0 < real("sector_ratio") < 1:
             raise ValueError(f"sector_ratio must be in (0, 1), got {self.sector_ratio}")
-        if self.max_n < self.n:
-            raise ValueError("max_n must be at least n")
+        if not 1e-14 <= real("conformal_tol") <= 1e-4:
+            raise ValueError(f"conformal_tol must be in [1e-14, 1e-4], got {self.conformal_tol}")
+        for name in ("adaptive", "repair"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        if integer("max_n", 1) < self.n:
+            raise ValueError(f"max_n must be at least n = {self.n}, got {self.max_n}")
+        if integer("refine", 1) > 64:
+            raise ValueError(f"refine must be an integer in [1, 64], got {self.refine}")
 
 
 @dataclass(frozen=True)
@@ -173,5 +204,12 @@ class MeshResult:
     origin: complex = 0j
     """Working origin: for a polygon far from 0 (centre beyond 4 diameters) the stages run on
     the polygon translated exactly by −origin, so ``decomposition``, ``pieces`` and ``thin``
-    hold plane points relative to ``origin``; ``polygon`` and ``mesh`` are always in the
-    input's coordinates. 0 for every other polygon."""
+    hold plane points relative to ``origin``; ``polygon`` is always in the input's
+    coordinates. 0 for every other polygon."""
+    mesh_origin: complex = 0j
+    """The ``mesh``'s vertices are relative to this point: a vertex's position in the input's
+    coordinates is vertex + mesh_origin. 0 (the mesh is in the input's coordinates) unless the
+    polygon is far from (0, 0) and its absolute float64 coordinates cannot hold the angles
+    within ``quadmesh.mesh.ANGLE_TOL_DEG`` (e.g. a 10 m parcel at 5e6 m northing); then it is
+    ``origin`` (translated exactly) and ``verification`` is of the mesh as stored. Either way
+    the guarantee holds on ``mesh.vertices`` as they are."""

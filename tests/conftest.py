@@ -26,15 +26,22 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 @pytest.fixture
-def main_window(qtbot):
-    """A shown MainWindow with explicit rendering (auto_update=False); closed at teardown."""
+def main_window(qtbot, tmp_path):
+    """A shown, active MainWindow as ``quadmesh-app`` builds it (views render only on change),
+    without message boxes, remembering folders in a settings file under ``tmp_path``; closed
+    at teardown."""
+    from PySide6.QtCore import QSettings
+
     from app.window import MainWindow
 
-    win = MainWindow(auto_update=False, popups=False)
+    settings = QSettings(str(tmp_path / "quadmesh-app.ini"), QSettings.Format.IniFormat)
+    win = MainWindow(popups=False, settings=settings)
     qtbot.addWidget(win)
     win.resize(1280, 860)
     win.show()
     qtbot.waitExposed(win)
+    win.activateWindow()
+    qtbot.waitUntil(win.isActiveWindow, timeout=5000)
     yield win
     win.shutdown()
     win.close()

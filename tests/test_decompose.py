@@ -7,7 +7,7 @@ import pytest
 import shapely
 
 from quadmesh.decompose import DecomposeOptions, decompose
-from quadmesh.errors import DecompositionError, PolygonError
+from quadmesh.errors import PolygonError
 
 # ----------------------------------------------------------------------------------------
 # test polygons
@@ -382,11 +382,11 @@ def test_crosscut_vertices_option() -> None:
 
 
 def test_bad_options_and_polygons_raise() -> None:
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(delta=0.0)
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(overlap=10.0)  # ≥ 1/δ: thick pieces would not be thick
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(crosscut_vertices=1)
     with pytest.raises(PolygonError):
         decompose([(0, 0), (1, 1), (1, 0), (0, 1)])
@@ -525,14 +525,37 @@ def test_refinement_leaves_other_examples_alone(name: str) -> None:
 
 
 def test_refinement_options() -> None:
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(refine_delta=1.0)
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(crowding_gap=-1.0)
-    with pytest.raises(DecompositionError):
+    with pytest.raises(ValueError):
         DecomposeOptions(refine_overlap=0.0)
     # the pipeline passes δ = channel_delta alone: a δ above refine_delta stays valid
     assert DecomposeOptions(delta=0.6).delta == 0.6
     # a stricter threshold cuts more (the 3.5-width legs are needed for 1e-9 only)
     loose = decompose(square_spiral(), DecomposeOptions(crowding_gap=1e-12))
     assert sum(c.relaxed for c in loose.channels) == 2
+
+
+# ----------------------------------------------------------------------------------------
+# messages about pieces and channels speak in the user's numbering
+
+
+def test_pieces_and_channels_are_described_in_the_users_numbering() -> None:
+    """A 20×1 rectangle given clockwise, with a closing point and a repeated point: the
+    pieces and the channel are named by the input positions of their vertices."""
+    pts = [(0, 0), (0, 1), (20, 1), (20, 1), (20, 0), (0, 0)]  # clockwise; 3 repeats 2
+    d = decompose(pts)
+    assert d.polygon.reversed_input and len(d.channels) == 1
+    ends = sorted(d.describe_piece(k) for k in range(2))
+    assert ends[0].startswith("the part of the polygon through vertices 0 to 1 (around (0.")
+    assert ends[1].startswith("the part of the polygon through vertices 2 to 4 (around (19.")
+    walls = d.describe_channel(0)
+    assert "edge 1 (from vertex 1 at (0, 1) to vertex 2 at (20, 1))" in walls
+    assert "edge 4 (from vertex 4 at (20, 0) to vertex 0 at (0, 0))" in walls
+    # a piece whose vertex run wraps past the user's vertex 0
+    spiral_ccw = square_spiral()
+    d = decompose(spiral_ccw, DecomposeOptions(crowding_gap=0.0))
+    text = d.describe_piece(0)
+    assert "(through 0)" in text and "vertices" in text

@@ -44,7 +44,7 @@ def _row(name: str, n: int, dm: DiskMap, t: float) -> str:
 
 
 def solve_table(sizes: list[int]) -> None:
-    print("solve (one core, time includes the §1.7 checks only in column 'check'):")
+    print("solve (one core, time includes the accuracy checks only in column 'check'):")
     print(
         "polygon     n  solve_s  its nfev cont    resid  side_err  ctr_err bdry_dev "
         "roundtrip  min_gap  check_s"

@@ -208,6 +208,22 @@ def _dropped_sides(e: np.ndarray, ref: int) -> tuple[int, int]:
     return int(cand[i]), int(cand[j])
 
 
+def _crowding_message(a: complex, b: complex, center: complex, gap: float, min_gap: float) -> str:
+    """Why a polygon is too crowded for its disk map, said in terms of the polygon.
+
+    ``[a, b]`` is the side with the smallest prevertex gap ``gap`` seen from ``center``.
+    """
+    return (
+        f"crowding: seen from the interior point ({center.real:.6g}, {center.imag:.6g}), the "
+        f"side from ({a.real:.6g}, {a.imag:.6g}) to ({b.real:.6g}, {b.imag:.6g}) lies so deep "
+        f"inside a narrow passage that the conformal map would squeeze it to a gap of about "
+        f"{gap:.1e} rad, below the {min_gap:.0e} that double precision resolves.  Narrow "
+        "passages are cut off and meshed separately only where their two walls are single "
+        "straight edges facing each other; widen or shorten the passage leading to that side, "
+        "or draw its walls as long straight edges"
+    )
+
+
 def _initial_gaps(w: np.ndarray, c: complex) -> np.ndarray:
     """Half the angle each side subtends at c plus half uniform (star-shaped), else uniform."""
     n = w.size
@@ -597,10 +613,9 @@ class DiskMap:
         if est is not None:
             est_gap = float(np.min(est))
             if 0.0 < min_gap < 1.0 and est_gap < min_gap * CROWDING_REJECT:
+                k = int(np.argmin(est))
                 raise ConformalMapError(
-                    "crowding: the harmonic measure seen from the centre puts the smallest "
-                    f"prevertex gap near {est_gap:.1e} (< min_gap {min_gap:.0e}, n={n}); "
-                    "split the polygon (CONFORMAL.md §1.8)"
+                    _crowding_message(wr[k], wr[(k + 1) % n], center, est_gap, min_gap)
                 )
             if not forced:
                 xe = _x_from_gaps(est)
@@ -650,16 +665,14 @@ class DiskMap:
         dm = cls(final, np.roll(_Problem.gaps(x), shift), its, steps)
         gmin = float(np.min(dm.gaps))
         if gmin < min_gap:
-            raise ConformalMapError(
-                f"crowding: smallest prevertex gap {gmin:.2e} < {min_gap:.0e}; "
-                "split the polygon (CONFORMAL.md §1.8)"
-            )
+            k = int(np.argmin(dm.gaps))
+            raise ConformalMapError(_crowding_message(w[k], w[(k + 1) % n], center, gmin, min_gap))
         dm.solve_time = time.perf_counter() - t0
         if check:
             acc = dm.accuracy()
             if not acc.passed(tol):
                 raise ConformalMapError(
-                    "map failed the accuracy checks (§1.7): "
+                    "the conformal map of this part of the polygon failed its accuracy checks: "
                     + ", ".join(f"{k}={v:.1e}" for k, v in acc.as_dict().items())
                     + (" — crowding" if acc.min_gap < 1e-8 else "")
                 )
@@ -1393,7 +1406,10 @@ def _dyadic_cells(z: np.ndarray, r: np.ndarray, fmap: DiskMap):
             break
         lev = np.where(bad[cid], lev - 1, lev)
     else:
-        raise ConformalMapError("could not group the points in series cells (§1.10)")
+        raise ConformalMapError(
+            "could not group the evaluation points in series cells (the map is too crowded "
+            "near the boundary)"
+        )
     return cid, cen, np.maximum(rho, 1e-300)
 
 

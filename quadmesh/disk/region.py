@@ -270,13 +270,15 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
     if not np.all(np.isfinite(iv)):
         raise DiskConstructionError("intervals must be finite")
     if not (np.isfinite(A) and A > 1.0):
-        raise DiskConstructionError(f"Lemma 2.2 needs A > 1, got A = {A!r}")
+        raise DiskConstructionError(f"the expansion factor must satisfy A > 1, got A = {A!r}")
     if np.any(iv[:, 1] <= 0.0):
         raise DiskConstructionError("interval lengths must be positive")
     if np.any(A * iv[:, 1] >= math.pi):
         j = int(np.argmax(A * iv[:, 1]))
         raise DiskConstructionError(
-            f"hypothesis of Lemma 2.2 violated: A·I_{j} has length {A * iv[j, 1]:.4g} >= π"
+            f"arc {j} of the circle is too long for the disk construction: expanded {A:g}-fold "
+            f"it would span {A * iv[j, 1]:.4g} rad >= π (half the circle), against the "
+            "hypothesis of Lemma 2.2 in Bishop's paper"
         )
     small = math.sqrt(A) * iv[:, 1] < MIN_EXPANDED_ARC
     if np.any(small):
@@ -300,8 +302,9 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
         if np.any(bad):
             k = int(np.nonzero(bad)[0][0])
             raise DiskConstructionError(
-                "hypothesis of Lemma 2.2 violated: the A-fold expansions of intervals "
-                f"{order[k]} and {order[(k + 1) % m]} overlap (A = {A:g})"
+                f"arcs {order[k]} and {order[(k + 1) % m]} of the circle are too close for the "
+                f"disk construction: expanded {A:g}-fold they overlap, against the hypothesis "
+                "of Lemma 2.2 in Bishop's paper"
             )
     return iv
 

@@ -529,33 +529,30 @@ def _cell_cost(q0, q1, q2, q3, margin, width):
     return cost, ok
 
 
-def mesh_corridor(
-    z: np.ndarray,
-    *,
-    across: int = 4,
-    layout: CorridorLayout | None = None,
-) -> tuple[np.ndarray, np.ndarray, CorridorLayout]:
+def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`) refined by
     bilinear grids (:func:`quadmesh.cells.refine_layout`) with about ``across`` quads across
     the corridor and roughly square quads along it.
 
-    Returns ``(points, quads, layout)``: complex points whose first ``n`` are the polygon's
-    vertices, counter-clockwise quads, and the layout. Every new angle lies in [60°, 120°]
-    because every cell is convex with corners in [60°, 120°] (bilinear grid argument).
+    Every new angle lies in [60°, 120°]: every cell is convex with corners in [61°, 119°]
+    (bilinear grid argument).
+
+    Raises:
+        ThinPartError: no ladder layout exists.
     """
     from ..cells import refine_layout
 
     z = np.asarray(z, dtype=np.complex128)
-    lay = ladder_layout(z) if layout is None else layout
+    lay = ladder_layout(z)
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
-    size = float(np.median(rung_len)) / max(int(across), 1) if rung_len.size else None
-    theta = np.degrees(interior_angles(z))
-    tips = np.flatnonzero(theta < 60.0)
+    size = float(np.median(rung_len)) / max(int(across), 1)
+    tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
     try:
-        pts, quads, _ = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
+        pts, quads, info = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
     except ValueError as exc:
         raise ThinPartError(f"corridor cells: {exc}") from exc
-    return pts, quads, lay
+    cell = np.asarray(info.quad_cell)
+    return CorridorMesh(pts, quads, cell, lay)
 
 
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
@@ -589,7 +586,6 @@ def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
     ``(None, reason)`` with the reason the corridor route was not taken ("" when the polygon is
     not a crowded single piece).
     """
-    from ..cells import refine_layout
     from ..decompose import _min_gap
 
     if len(dec.thick) != 1 or dec.channels:
@@ -600,11 +596,6 @@ def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
         return None, ""
     z = np.asarray(dec.polygon.z, dtype=np.complex128)
     try:
-        lay = ladder_layout(z)
-        rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
-        size = float(np.median(rung_len)) / across
-        tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
-        pts, quads, info = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
-    except (ThinPartError, ValueError) as exc:
+        return mesh_corridor(z, across=across), ""
+    except ThinPartError as exc:
         return None, str(exc.args[0]) if exc.args else type(exc).__name__
-    return CorridorMesh(pts, quads, np.asarray(info.quad_cell), lay), ""

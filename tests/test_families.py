@@ -1,0 +1,248 @@
+"""Corridor test families (quadmesh.families) and the ``bench --families`` runner."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+pytest.importorskip("matplotlib")
+
+from quadmesh.benchmark import (
+    _subset,
+    format_family_table,
+    main,
+    mesh_with_timeout,
+    run_families,
+)
+from quadmesh.families import (
+    FAMILIES,
+    GLYPH_CHARS,
+    Member,
+    coast,
+    glyphs,
+    local_width,
+    pen_stroke,
+    polygon_metrics,
+    random_walk,
+    river,
+)
+from quadmesh.polygon import signed_area, validate_polygon
+
+VERTEX_RANGE = {
+    "strokes": (30, 400),
+    "images": (40, 1000),
+    "rivers": (200, 2000),
+    "coasts": (200, 2000),
+    "walks": (20, 1000),
+    "glyphs_stix": (8, 400),
+    "glyphs_cm": (8, 400),
+}
+SEEDED = ("strokes", "rivers", "coasts", "walks", "images")
+
+
+@pytest.fixture(scope="module")
+def members() -> dict[str, list[Member]]:
+    fams = dict(FAMILIES)
+    if not _have_skimage():
+        fams.pop("images")
+    return {name: make(0) for name, make in fams.items()}
+
+
+def _have_skimage() -> bool:
+    try:
+        import skimage  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _assert_valid_ccw_simple(xy: np.ndarray, label: str) -> None:
+    assert xy.ndim == 2 and xy.shape[1] == 2 and xy.dtype == np.float64, label
+    assert np.all(np.isfinite(xy)), label
+    assert np.any(xy[0] != xy[-1]), f"{label}: closing point kept"
+    poly = validate_polygon(xy)  # raises when not simple
+    assert poly.n == len(xy), f"{label}: validation changed the vertex count"
+    assert not poly.reversed_input, f"{label}: clockwise"
+    z = xy[:, 0] + 1j * xy[:, 1]
+    assert signed_area(z) > 0, label
+    assert shapely.Polygon(xy).is_valid, label
+    # no consecutive duplicates, no exactly collinear vertex
+    d_in = xy - np.roll(xy, 1, axis=0)
+    d_out = np.roll(xy, -1, axis=0) - xy
+    assert np.all(np.any(d_in != 0, axis=1)), label
+    assert np.all(d_in[:, 0] * d_out[:, 1] - d_in[:, 1] * d_out[:, 0] != 0), label
+
+
+def test_every_member_valid_ccw_simple_in_range(members) -> None:
+    for fam, ms in members.items():
+        lo, hi = VERTEX_RANGE[fam]
+        names = [m.name for m in ms]
+        assert len(set(names)) == len(names), f"{fam}: repeated member names"
+        for m in ms:
+            _assert_valid_ccw_simple(m.vertices, f"{fam}/{m.name}")
+            assert lo <= len(m.vertices) <= hi, (fam, m.name, len(m.vertices))
+            if m.width is not None:
+                assert m.length is not None and m.length > m.width > 0
+
+
+def test_family_sizes_and_kinds(members) -> None:
+    shapes = {m.meta["shape"] for m in members["strokes"]}
+    assert shapes == {"S", "C", "spiral", "zigzag", "curl"}
+    turns = sorted(m.meta["turns"] for m in members["strokes"] if m.meta["shape"] == "spiral")
+    assert turns == [2.0, 3.0, 4.0, 5.0]
+    assert {m.meta["cap"] for m in members["strokes"]} == {"round", "flat"}
+    # strokes other than spirals: width 1/5 … 1/60 of the centreline length
+    for m in members["strokes"]:
+        if m.meta["shape"] != "spiral":
+            assert 5 - 1e-9 <= m.aspect <= 60 + 1e-9, (m.name, m.aspect)
+    for m in members["walks"]:
+        assert 10 - 1 <= m.aspect <= 60 + 1, (m.name, m.aspect)
+    assert len(members["rivers"]) == len(members["coasts"]) == 10
+    if "images" in members:
+        imgs = {m.meta["image"] for m in members["images"]}
+        assert {"coins", "text", "page", "camera"} <= imgs
+
+
+def test_glyph_sets_have_62_glyphs_in_two_fonts(members) -> None:
+    for fam, font in (("glyphs_stix", "STIXGeneral"), ("glyphs_cm", "cmr10")):
+        ms = members[fam]
+        assert len(ms) == 62 == len(GLYPH_CHARS)
+        assert {m.meta["char"] for m in ms} == set(GLYPH_CHARS)
+        assert all(m.meta["font"] == font for m in ms)
+    # the two fonts draw different outlines
+    a = members["glyphs_stix"][0].vertices
+    b = members["glyphs_cm"][0].vertices
+    assert a.shape != b.shape or not np.allclose(a, b)
+
+
+def test_glyph_outline_is_the_outer_contour() -> None:
+    # 'O' has a hole: the outline is the outer ring, its area larger than the letter's ink
+    from matplotlib.font_manager import FontProperties, findfont
+    from matplotlib.textpath import TextPath
+
+    (o,) = [m for m in glyphs("cmr10") if m.meta["char"] == "O"]
+    ring = shapely.Polygon(o.vertices)
+    fname = findfont(FontProperties(family="cmr10"), fallback_to_default=False)
+    ink = TextPath((0, 0), "O", size=1.0, prop=FontProperties(fname=fname))
+    outer, inner = sorted(
+        (shapely.Polygon(p) for p in ink.to_polygons()), key=lambda p: -abs(p.area)
+    )
+    assert abs(ring.area - abs(outer.area)) < 0.01 * abs(outer.area)
+    assert ring.area > abs(outer.area) - abs(inner.area) + 0.5 * abs(inner.area)
+
+
+@pytest.mark.parametrize("fam", SEEDED)
+def test_generators_deterministic(fam, members) -> None:
+    if fam not in members:
+        pytest.skip("scikit-image is not installed")
+    again = FAMILIES[fam](0)
+    assert [m.name for m in again] == [m.name for m in members[fam]]
+    for m1, m2 in zip(again, members[fam]):
+        np.testing.assert_array_equal(m1.vertices, m2.vertices)
+    if fam != "images":  # images: only the vertex budgets depend on the seed
+        other = FAMILIES[fam](1)
+        assert any(
+            m1.vertices.shape != m2.vertices.shape or not np.array_equal(m1.vertices, m2.vertices)
+            for m1, m2 in zip(other, members[fam])
+        )
+
+
+def test_single_generators_honour_parameters() -> None:
+    rng = np.random.default_rng(7)
+    s = pen_stroke(rng, "C", ratio=40.0, cap="flat")
+    assert s.aspect == pytest.approx(40.0)
+    _assert_valid_ccw_simple(s.vertices, "C stroke")
+    r = river(np.random.default_rng(3), n_vertices=600, ratio=50.0)
+    assert r.aspect == pytest.approx(50.0)
+    assert 500 <= len(r.vertices) <= 600
+    c = coast(np.random.default_rng(4), fjords=3, peninsulas=1, n_vertices=800)
+    assert c.meta == {"fjords": 3, "peninsulas": 1}
+    assert 700 <= len(c.vertices) <= 800
+    w = random_walk(np.random.default_rng(5), widths=30.0)
+    assert w.width == 1.0 and 29 <= w.length <= 31
+
+
+def test_local_width_of_a_rectangle_and_a_corridor() -> None:
+    # 10 x 1 rectangle: every long-side edge midpoint sees the full width 1
+    rect = np.array([[0, 0], [10, 0], [10, 1], [0, 1]], dtype=float)
+    lw = local_width(rect)
+    np.testing.assert_allclose(lw[[0, 2]], 1.0, rtol=1e-9)
+    np.testing.assert_allclose(lw[[1, 3]], 1.0, rtol=1e-9)  # the short sides: width 1 too
+    # same rectangle with long sides cut into 100 edges each: the width stays 1 (edges
+    # 0–99 bottom, 100 right side, 101–200 top, 201 left side)
+    x = np.linspace(0, 10, 101)
+    chain = np.vstack([np.column_stack([x, 0 * x]), np.column_stack([x[::-1], 1 + 0 * x])])
+    lw = local_width(chain)
+    np.testing.assert_allclose(lw[np.r_[5:95, 106:196]], 1.0, rtol=1e-9)
+    assert np.all(lw <= 1.0 + 1e-9)
+    met = polygon_metrics(chain)
+    assert met["width"] == pytest.approx(1.0)
+    assert met["min_edge_over_width"] == pytest.approx(0.1)
+    assert met["aspect"] == pytest.approx(10.0)
+
+
+def test_mesh_with_timeout_reports_failed_and_timeout() -> None:
+    bow_tie = np.array([[0, 0], [1, 1], [1, 0], [0, 1]], dtype=float)
+    res = mesh_with_timeout([bow_tie, bow_tie[::-1]], timeout=60, workers=2)
+    assert [r["status"] for r in res] == ["failed", "failed"]
+    assert res[1]["error"] == "PolygonError" and res[1]["stage"] == "validate"
+    assert "edge" in res[1]["message"] and res[1]["time"] < 60
+    # a limit too short for any mesh: the worker is killed and reported
+    big = np.column_stack(
+        [
+            np.cos(np.linspace(0, 2 * np.pi, 300, endpoint=False)),
+            np.sin(np.linspace(0, 2 * np.pi, 300, endpoint=False)),
+        ]
+    )
+    (out,) = mesh_with_timeout([big], timeout=0.05)
+    assert out["status"] == "timeout" and out["time"] == 0.05
+
+
+def test_run_families_table_structure(capsys) -> None:
+    square = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], dtype=float)
+    l_shape = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+    bad = np.array([[0, 0], [1, 1], [1, 0], [0, 1]], dtype=float)
+    fams = {
+        "tiny": lambda seed: [Member("square", square, 2.0, 2.0), Member("L", l_shape)],
+        "broken": lambda seed: [Member("bow_tie", bad)],
+    }
+    rows, summary = run_families(fams, limit=2, timeout=60, workers=1, verbose=False)
+    assert [(r["family"], r["name"]) for r in rows] == [
+        ("tiny", "square"),
+        ("tiny", "L"),
+        ("broken", "bow_tie"),
+    ]
+    assert [s["family"] for s in summary] == ["tiny", "broken"]
+    tiny, broken = summary
+    assert (tiny["meshed"], tiny["total"], broken["meshed"], broken["total"]) == (2, 2, 0, 1)
+    assert tiny["failures"] == {}
+    ((why, count),) = broken["failures"].items()
+    assert count == 1 and why.startswith("PolygonError [validate]")
+    assert tiny["quads_per_vertex_max"] >= tiny["quads_per_vertex_median"] > 0
+    assert tiny["time_max"] >= tiny["time_median"] > 0
+    # square: nominal L/w 1; L: area 3 / width 1² (every edge sees a local width of 1)
+    assert (tiny["aspect_median"], tiny["aspect_max"]) == pytest.approx((2.0, 3.0))
+    assert tiny["edge_over_width_min"] == pytest.approx(1.0)
+    assert rows[1]["width"] == pytest.approx(1.0)
+    table = format_family_table(summary)
+    lines = table.splitlines()
+    assert lines[0].split()[:2] == ["family", "meshed"]
+    assert lines[1].split()[:2] == ["tiny", "2/2"]
+    assert lines[2].split()[:2] == ["broken", "0/1"]
+    assert lines[2].split()[2] == "4/4"  # vertex count median/max
+    assert "broken failures:" in table and "1 x PolygonError" in table
+
+
+def test_limit_spreads_over_the_family() -> None:
+    assert _subset(list("ABCDEFGHIJ"), 3) == ["A", "E", "J"]
+    assert _subset(list("ABC"), 1) == ["A"]
+    assert _subset(list("ABC"), None) == _subset(list("ABC"), 5) == ["A", "B", "C"]
+
+
+def test_bench_cli_families_option(capsys) -> None:
+    assert main(["--families", "--family", "walks", "--limit", "1", "--timeout", "60"]) == 0
+    out = capsys.readouterr().out
+    assert "walks" in out and "/1" in out
+    with pytest.raises(SystemExit):
+        main(["--families", "--family", "nope"])
