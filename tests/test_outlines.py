@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from quadmesh import mesh_polygon
-from quadmesh.errors import MeshVerificationError
 
 
 def _notch(e: float) -> np.ndarray:
