@@ -12,12 +12,12 @@ from quadmesh import mesh_polygon
 from quadmesh.cells import cell_is_admissible
 from quadmesh.examples import load_example
 from quadmesh.polygon import validate_polygon
-from quadmesh.thin.corridor import ladder_layout
+from quadmesh.thin.corridor import CELL_MARGIN, ladder_layout
 
 
-def _stroke(centre: np.ndarray, width: float) -> np.ndarray:
-    """A flat-capped pen stroke along a centreline (bevelled joins), counter-clockwise."""
-    g = shapely.LineString(centre).buffer(width / 2, cap_style="flat", join_style="round")
+def _stroke(centre: np.ndarray, width: float, cap: str = "flat") -> np.ndarray:
+    """A pen stroke along a centreline (round joins), counter-clockwise."""
+    g = shapely.LineString(centre).buffer(width / 2, cap_style=cap, join_style="round")
     g = shapely.geometry.polygon.orient(g, 1.0)
     return np.asarray(g.exterior.coords)[:-1]
 
@@ -102,11 +102,11 @@ def _ring(ni: int, no: int) -> np.ndarray:
 @pytest.mark.parametrize("ni, no", [(10, 10), (10, 14), (20, 10), (60, 20), (7, 40)])
 def test_ladder_cells_are_admissible_on_curved_walls(ni, no):
     """Walls with unrelated vertex spacings (reflex on one side, convex on the other): every
-    cell of the ladder is a convex quadrilateral with corners in [61°, 119°], and every polygon
-    vertex is a cell vertex."""
+    cell of the ladder is a convex quadrilateral with corners in [60°, 120°] (with the layout's
+    margin), and every polygon vertex is a cell vertex."""
     lay = ladder_layout(_ring(ni, no))
     corners = lay.vertices[lay.cells]
-    assert np.all(cell_is_admissible(corners, margin_deg=1.0 - 1e-9))
+    assert np.all(cell_is_admissible(corners, margin_deg=CELL_MARGIN - 1e-9))
     assert set(range(ni + no)) <= set(lay.cells.ravel().tolist())
 
 
@@ -114,3 +114,20 @@ def test_ordinary_polygons_keep_the_paper_construction():
     """A polygon that does not crowd (an L-shape) is meshed by the disk construction."""
     r = mesh_polygon(load_example("l_shape"))
     assert len(r.pieces) == 1 and all(t.kind != "corridor" for t in r.thin)
+
+
+@pytest.mark.parametrize(
+    "name, centre, width", [("S", _s_centre(), 1.0), ("C", _s_centre()[:30], 0.5)]
+)
+def test_round_capped_strokes_mesh_as_corridors(name, centre, width):
+    """Round ends are half-disk vertex sectors about the midpoint of their rung (Mesh 1 and full
+    Mesh 2 levels, then the connection zone to the cap's vertices); both ends are built with the
+    same point count and sector radius, so their points across the corridor agree."""
+    poly = _stroke(centre, width, cap="round")
+    r = mesh_polygon(poly)
+    assert [t.kind for t in r.thin] == ["corridor"]
+    lay = r.thin[0].mesh.layout
+    assert len(lay.round_caps) == 2
+    lo, hi = independent_check(validate_polygon(poly).vertices, r.mesh.vertices, r.mesh.quads)
+    assert 60 - 1e-9 <= lo and hi <= 120 + 1e-9
+    assert len(r.mesh.quads) <= 100 * len(poly), len(r.mesh.quads) / len(poly)

@@ -48,7 +48,7 @@ from ..polygon import interior_angles
 __all__ = ["CorridorLayout", "corridor_tips", "ladder_layout"]
 
 #: Margin (degrees) kept inside [60°, 120°] by every cell corner of a layout.
-CELL_MARGIN = 1.0
+CELL_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -63,6 +63,9 @@ class CorridorLayout:
         rungs: (R, 2) vertex indices (L end, R end) of the rungs in order from s to e.
         tips: (s, e) polygon vertex indices where the two walls meet.
         edge_of: (V,) polygon edge index holding each coarse vertex (−1 for polygon vertices).
+        round_caps: per round cap, its boundary γ from one end of its rung round to the other
+            (coarse vertex indices, counter-clockwise about the rung's midpoint): the cap is a
+            half-disk vertex sector whose sides are the two halves of the rung.
     """
 
     vertices: np.ndarray
@@ -71,6 +74,7 @@ class CorridorLayout:
     rungs: np.ndarray
     tips: tuple[int, int]
     edge_of: np.ndarray
+    round_caps: tuple[tuple[int, ...], ...] = ()
 
 
 def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -406,10 +410,46 @@ def ladder_layout(
             cap_dst.append(np.full(idx.size, nr + 1))
         cap_cost.append(cost[ok])
     arcs.append((np.concatenate(cap_src), np.concatenate(cap_dst), np.concatenate(cap_cost)))
+    # round caps: the part cut off by the rung is meshed as a half-disk vertex sector about
+    # the rung's midpoint (its sides are the two halves of the rung)
+    round_gamma: dict[tuple[int, int], list[int]] = {}
+    wmed = float(np.median(np.r_[L.width, R.width]))
+    for end in (0, 1):
+        if end == 0:
+            nin = (L.vrank[pa] - L.is_vertex[pa]) + (R.vrank[pb] - R.is_vertex[pb])
+            near = (L.sigma[pa] <= 4 * wmed) & (R.sigma[pb] <= 4 * wmed)
+        else:
+            nin = (L.vrank[-1] - L.vrank[pa]) + (R.vrank[-1] - R.vrank[pb])
+            near = (L.sigma[-1] - L.sigma[pa] <= 4 * wmed) & (R.sigma[-1] - R.sigma[pb] <= 4 * wmed)
+        for r in np.flatnonzero(near & (nin >= 1) & (nin <= 96)):
+            a, b = int(pa[r]), int(pb[r])
+            if end == 0:
+                lv_ = [int(g) for g in L.gid[:a][L.is_vertex[:a]]]
+                rv_ = [int(g) for g in R.gid[:b][R.is_vertex[:b]]]
+                ids = [int(R.gid[b]), *rv_[::-1], s, *lv_, int(L.gid[a])]
+                pts = np.r_[R.pos[b], z[rv_[::-1]], z[s], z[lv_], L.pos[a]]
+            else:
+                lv_ = [int(g) for g in L.gid[a + 1 :][L.is_vertex[a + 1 :]]]
+                rv_ = [int(g) for g in R.gid[b + 1 :][R.is_vertex[b + 1 :]]]
+                ids = [int(L.gid[a]), *lv_, e, *rv_[::-1], int(R.gid[b])]
+                pts = np.r_[L.pos[a], z[lv_], z[e], z[rv_[::-1]], R.pos[b]]
+            c = _round_cap_cost(pts)
+            if c is None:
+                continue
+            round_gamma[(end, int(r))] = ids
+            if end == 0:
+                arcs.append((np.array([nr]), np.array([r]), np.array([c])))
+            else:
+                arcs.append((np.array([r]), np.array([nr + 1]), np.array([c])))
 
     S = np.concatenate([x[0] for x in arcs])
     D = np.concatenate([x[1] for x in arcs])
     W = np.concatenate([x[2] for x in arcs])
+    # one arc per (from, to): the cheapest (a sparse matrix would add duplicates up)
+    key = S.astype(np.int64) * (nr + 2) + D
+    order_ = np.lexsort((W, key))
+    first_ = np.r_[True, key[order_][1:] != key[order_][:-1]]
+    S, D, W = S[order_][first_], D[order_][first_], W[order_][first_]
     g = coo_matrix((W, (S, D)), shape=(nr + 2, nr + 2)).tocsr()
     dist, pred = dijkstra(g, indices=nr, return_predecessors=True)
     if debug is not None:
@@ -436,11 +476,18 @@ def ladder_layout(
     kind: list[str] = []
     gl = lambda C, i: int(C.gid[i])  # noqa: E731
     first_a, first_b = pa[path[0]], pb[path[0]]
-    # start cap
+    # start cap: a quadrilateral cell, or a round cap when it is cheaper (or the only way)
+    rounds: list[tuple[int, ...]] = []
     ring = [s] + [int(v) for v in L.gid[:first_a][L.is_vertex[:first_a]]] + [gl(L, first_a)]
     ring += [gl(R, first_b), *[int(v) for v in R.gid[:first_b][R.is_vertex[:first_b]]][::-1]]
-    cells.append(ring)
-    kind.append("cap")
+    if len(ring) == 4 and (0, path[0]) not in round_gamma:
+        cells.append(ring)
+        kind.append("cap")
+    elif len(ring) == 4 and _quad_cap_ok(coarse[ring], margin):
+        cells.append(ring)
+        kind.append("cap")
+    else:
+        rounds.append(tuple(round_gamma[(0, path[0])]))
     for r0, r1 in itertools.pairwise(path):
         a, b, a_, b_ = pa[r0], pb[r0], pa[r1], pb[r1]
         if a_ == a:
@@ -455,10 +502,14 @@ def ladder_layout(
     la_, lb_ = pa[path[-1]], pb[path[-1]]
     ring = [gl(L, la_)] + [int(v) for v in L.gid[la_ + 1 :][L.is_vertex[la_ + 1 :]]] + [e]
     ring += [*[int(v) for v in R.gid[lb_ + 1 :][R.is_vertex[lb_ + 1 :]]][::-1], gl(R, lb_)]
-    cells.append(ring)
-    kind.append("cap")
-    cell_arr = np.asarray(cells, dtype=np.int64)
-    used = np.unique(cell_arr)
+    if len(ring) == 4 and ((1, path[-1]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)):
+        cells.append(ring)
+        kind.append("cap")
+    else:
+        rounds.append(tuple(round_gamma[(1, path[-1])]))
+    cell_arr = np.asarray(cells, dtype=np.int64).reshape(-1, 4)
+    round_ids = np.asarray([i for g in rounds for i in g], dtype=np.int64)
+    used = np.unique(np.concatenate([cell_arr.ravel(), round_ids]))
     # keep coarse vertices: all polygon vertices, then the used samples renumbered
     samp_used = used[used >= n]
     remap = np.full(coarse.size, -1, dtype=np.int64)
@@ -473,6 +524,7 @@ def ladder_layout(
         rungs=remap[rung_arr],
         tips=(int(s), int(e)),
         edge_of=np.concatenate([np.full(n, -1), edge_of[samp_used]]),
+        round_caps=tuple(tuple(int(remap[i]) for i in g) for g in rounds),
     )
 
 
@@ -514,6 +566,41 @@ def _facing_distance(pos, normal, boundary, floor: float, reach: float) -> np.nd
     return np.maximum(d, floor)
 
 
+def _quad_cap_ok(q: np.ndarray, margin: float) -> bool:
+    """Whether a four-corner cap cell is admissible."""
+    _, ok = _cell_cost(q[0:1], q[1:2], q[2:3], q[3:4], margin, None)
+    return bool(ok[0])
+
+
+def _round_cap_cost(pts: np.ndarray) -> float | None:
+    """Cost of a round cap with boundary ``pts`` (first and last: the rung's ends), or None if
+    the cap is not a half-disk about the rung's midpoint: every point within 25 % of the
+    rung's half-length from the midpoint, in strictly increasing polar angle from 0° to 180°."""
+    o = 0.5 * (pts[0] + pts[-1])
+    half = 0.5 * abs(pts[-1] - pts[0])
+    if half == 0:
+        return None
+    w = (pts - o) / (pts[0] - o)
+    rad = np.abs(w[1:-1])
+    if rad.size == 0 or rad.min() < 0.8 or rad.max() > 1.25:
+        return None
+    # no chord may pass closer to O than the points do (a flat end is not round)
+    d = np.diff(w)
+    t = np.clip(-(np.conj(d) * w[:-1]).real / np.abs(d) ** 2, 0.0, 1.0)
+    if np.abs(w[:-1] + t * d).min() < 0.8:
+        return None
+    ang = np.angle(w)
+    ang[0], ang[-1] = 0.0, np.pi
+    if np.any(ang[1:-1] <= 0) or np.any(np.diff(ang) <= 1e-9):
+        return None
+    # chords no more than 25° from the circle direction (the sector's connection zone)
+    mid = 0.5 * (w[1:] + w[:-1])
+    tilt = np.degrees(np.abs(np.angle(np.diff(w) / (1j * mid))))
+    if tilt.max() > 25.0:
+        return None
+    return 3.0 + float(np.abs(rad - 1).max())
+
+
 def _cell_cost(q0, q1, q2, q3, margin, width):
     """Cost of the quadrilateral cells (q0, q1, q2, q3) and whether each is admissible (convex,
     counter-clockwise, corners in [60° + margin, 120° − margin])."""
@@ -547,12 +634,111 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
     tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
+    # round caps first: their sectors fix the points on their rungs
+    caps = []
+    if lay.round_caps:
+        # one (point count, sector radius) for every round cap: their rung points then agree
+        n_chords = max(len(g) - 1 for g in lay.round_caps)
+        n_pts = 4 * 2 ** int(np.ceil(np.log2(max(n_chords, 16) / 4))) + 1
+        ratio = min(
+            float(np.min(np.abs(lay.vertices[list(g)] - _mid(lay.vertices, g))))
+            / (0.5 * abs(lay.vertices[g[-1]] - lay.vertices[g[0]]))
+            for g in lay.round_caps
+        )
+        caps = [_round_cap_sector(lay.vertices, g, n_pts, 0.25 * ratio) for g in lay.round_caps]
+    edge_params = {(g[0], g[-1]): cap[1] for g, cap in zip(lay.round_caps, caps)}
     try:
-        pts, quads, info = refine_layout(lay.vertices, lay.cells, size=size, tips=tips.tolist())
+        pts, quads, info = refine_layout(
+            lay.vertices, lay.cells, size=size, tips=tips.tolist(), edge_params=edge_params
+        )
     except ValueError as exc:
         raise ThinPartError(f"corridor cells: {exc}") from exc
     cell = np.asarray(info.quad_cell)
+    for k, (g, (sec, _params, gamma_pts, gamma_ids)) in enumerate(zip(lay.round_caps, caps)):
+        # glue the sector: gamma points that are coarse vertices by index, the others new;
+        # the points on the rung are the refined rung's points, in order of their parameter
+        gl = np.full(sec.vertices.size, -1, dtype=np.int64)
+        gidx = np.asarray(sec.gamma_index)
+        new_pts = []
+        for j, (p, cid) in enumerate(zip(gamma_pts, gamma_ids)):
+            if cid >= 0:
+                gl[gidx[j]] = cid
+            else:
+                gl[gidx[j]] = pts.size + len(new_pts)
+                new_pts.append(p)
+        u, v = g[0], g[-1]
+        rung = np.asarray(info.edge_points(u, v))
+        zu, zv = lay.vertices[u], lay.vertices[v]
+        t = (sec.vertices - zu) / (zv - zu)
+        on = (np.abs(t.imag) < 1e-9) & (t.real > -1e-12) & (t.real < 1 + 1e-12)
+        on_idx = np.flatnonzero(on & (gl < 0))
+        order = on_idx[np.argsort(t.real[on_idx])]
+        inner = rung[1:-1]
+        if order.size != inner.size:
+            raise ThinPartError(
+                f"round end near ({zu.real:.6g}, {zu.imag:.6g}): its sector and the corridor "
+                f"disagree on the points across it ({order.size} against {inner.size})"
+            )
+        gl[order] = inner
+        own = gl < 0
+        gl[own] = pts.size + len(new_pts) + np.arange(int(own.sum()))
+        pts = np.concatenate([pts, np.asarray(new_pts, dtype=np.complex128), sec.vertices[own]])
+        quads = np.concatenate([quads, gl[np.asarray(sec.quads)]])
+        cell = np.concatenate([cell, np.full(len(sec.quads), -2 - k)])
     return CorridorMesh(pts, quads, cell, lay)
+
+
+def _mid(vertices: np.ndarray, gamma: tuple[int, ...]) -> complex:
+    """Midpoint of a round cap's rung."""
+    return 0.5 * (vertices[gamma[0]] + vertices[gamma[-1]])
+
+
+def _round_cap_sector(vertices: np.ndarray, gamma: tuple[int, ...], n_pts: int, inner: float):
+    """The half-disk vertex sector of a round cap (paper §8, parabolic case, with the apex at
+    the midpoint O of the cap's rung and the two halves of the rung as its sides).
+
+    ``gamma`` runs from one end of the rung round the cap to the other. Its chords are split
+    (new mesh vertices on the polygon's edges), widest angle about O first, until it has
+    ``n_pts`` = 4·2^k + 1 points: the sector then has only full Mesh 2 levels, so its points on
+    the rung depend on nothing but ``n_pts`` and the sector radius, set to ``inner`` times the
+    rung's half-length. Two round caps built with the same (``n_pts``, ``inner``) put their
+    points at the same parameters across their rungs, so one chord of cells can join them.
+
+    Returns the sector mesh, the parameters of its points on the rung (from gamma[0] to
+    gamma[-1], 0 and 1 included), and the gamma points with their coarse vertex index (−1 for
+    new points).
+    """
+    from .parabolic import mesh_vertex_sector
+
+    g = vertices[list(gamma)]
+    o = 0.5 * (g[0] + g[-1])
+    half = 0.5 * abs(g[-1] - g[0])
+    ang = np.unwrap(np.angle((g - o) / (g[0] - o)))
+    span = np.diff(ang)
+    k = np.ones(span.size, dtype=np.int64)
+    if k.sum() > n_pts - 1:
+        raise ThinPartError("a round end of the corridor has more points than its sector takes")
+    while k.sum() < n_pts - 1:
+        k[np.argmax(span / k)] += 1
+    pts: list[complex] = []
+    ids: list[int] = []
+    for j in range(g.size - 1):
+        for i in range(int(k[j])):
+            pts.append(g[j] + (g[j + 1] - g[j]) * i / k[j])
+            ids.append(int(gamma[j]) if i == 0 else -1)
+    pts.append(g[-1])
+    ids.append(int(gamma[-1]))
+    gp = np.asarray(pts)
+    lam = inner * half / float(np.min(np.abs(gp - o)))
+    try:
+        sec = mesh_vertex_sector(o, g[0] - o, np.pi, gp, lam=lam, max_tilt_deg=25.0)
+    except ThinPartError as exc:
+        raise ThinPartError(f"round end near ({o.real:.6g}, {o.imag:.6g}): {exc.args[0]}") from exc
+    t = (sec.vertices - g[0]) / (g[-1] - g[0])
+    on = np.abs(t.imag) < 1e-9
+    params = np.unique(np.clip(t.real[on], 0.0, 1.0))
+    params[0], params[-1] = 0.0, 1.0
+    return sec, params, gp, ids
 
 
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
