@@ -33,6 +33,7 @@ Cells (each a quadrilateral, corners counter-clockwise):
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -593,12 +594,14 @@ def _round_cap_cost(pts: np.ndarray) -> float | None:
     ang[0], ang[-1] = 0.0, np.pi
     if np.any(ang[1:-1] <= 0) or np.any(np.diff(ang) <= 1e-9):
         return None
-    # chords no more than 25° from the circle direction (the sector's connection zone)
-    mid = 0.5 * (w[1:] + w[:-1])
-    tilt = np.degrees(np.abs(np.angle(np.diff(w) / (1j * mid))))
-    if tilt.max() > 25.0:
+    # the connection quads between the sector's core and the cap's points
+    try:
+        a_ = _cap_mesh(pts, _cap_points(pts.size - 1))[4]
+    except ThinPartError:
         return None
-    return 3.0 + float(np.abs(rad - 1).max())
+    if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
+        return None
+    return 3.0 + float(np.abs(a_ - 90.0).max()) / 30.0
 
 
 def _cell_cost(q0, q1, q2, q3, margin, width):
@@ -637,16 +640,10 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     # round caps first: their sectors fix the points on their rungs
     caps = []
     if lay.round_caps:
-        # one (point count, sector radius) for every round cap: their rung points then agree
-        n_chords = max(len(g) - 1 for g in lay.round_caps)
-        n_pts = 4 * 2 ** int(np.ceil(np.log2(max(n_chords, 16) / 4))) + 1
-        ratio = min(
-            float(np.min(np.abs(lay.vertices[list(g)] - _mid(lay.vertices, g))))
-            / (0.5 * abs(lay.vertices[g[-1]] - lay.vertices[g[0]]))
-            for g in lay.round_caps
-        )
-        caps = [_round_cap_sector(lay.vertices, g, n_pts, 0.25 * ratio) for g in lay.round_caps]
-    edge_params = {(g[0], g[-1]): cap[1] for g, cap in zip(lay.round_caps, caps)}
+        # one point count for every round cap: their points across the rung then agree
+        n_pts = _cap_points(max(len(g) - 1 for g in lay.round_caps))
+        caps = [_round_cap_sector(lay.vertices, g, n_pts) for g in lay.round_caps]
+    edge_params = {(g[0], g[-1]): cap[2] for g, cap in zip(lay.round_caps, caps)}
     try:
         pts, quads, info = refine_layout(
             lay.vertices, lay.cells, size=size, tips=tips.tolist(), edge_params=edge_params
@@ -654,91 +651,132 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     except ValueError as exc:
         raise ThinPartError(f"corridor cells: {exc}") from exc
     cell = np.asarray(info.quad_cell)
-    for k, (g, (sec, _params, gamma_pts, gamma_ids)) in enumerate(zip(lay.round_caps, caps)):
-        # glue the sector: gamma points that are coarse vertices by index, the others new;
-        # the points on the rung are the refined rung's points, in order of their parameter
-        gl = np.full(sec.vertices.size, -1, dtype=np.int64)
-        gidx = np.asarray(sec.gamma_index)
-        new_pts = []
-        for j, (p, cid) in enumerate(zip(gamma_pts, gamma_ids)):
-            if cid >= 0:
-                gl[gidx[j]] = cid
-            else:
-                gl[gidx[j]] = pts.size + len(new_pts)
-                new_pts.append(p)
+    for k, (g, (cp, cq, _params, gamma_ids)) in enumerate(zip(lay.round_caps, caps)):
+        # glue the sector: its g_k that are coarse vertices by index, its points on the rung
+        # to the refined rung's points (same parameters, in order), the others new
+        n_pts = len(gamma_ids)
+        gl = np.full(cp.size, -1, dtype=np.int64)
+        gid = np.asarray(gamma_ids)
+        gl[:n_pts][gid >= 0] = gid[gid >= 0]
         u, v = g[0], g[-1]
         rung = np.asarray(info.edge_points(u, v))
         zu, zv = lay.vertices[u], lay.vertices[v]
-        t = (sec.vertices - zu) / (zv - zu)
-        on = (np.abs(t.imag) < 1e-9) & (t.real > -1e-12) & (t.real < 1 + 1e-12)
-        on_idx = np.flatnonzero(on & (gl < 0))
-        order = on_idx[np.argsort(t.real[on_idx])]
-        inner = rung[1:-1]
-        if order.size != inner.size:
+        t = (cp - zu) / (zv - zu)
+        on = np.flatnonzero((np.abs(t.imag) < 1e-9) & (gl < 0))
+        on = on[(t.real[on] > 1e-12) & (t.real[on] < 1 - 1e-12)]
+        on = on[np.argsort(t.real[on])]
+        if on.size != rung.size - 2:
             raise ThinPartError(
                 f"round end near ({zu.real:.6g}, {zu.imag:.6g}): its sector and the corridor "
-                f"disagree on the points across it ({order.size} against {inner.size})"
+                f"disagree on the points across it ({on.size} against {rung.size - 2})"
             )
-        gl[order] = inner
-        own = gl < 0
-        gl[own] = pts.size + len(new_pts) + np.arange(int(own.sum()))
-        pts = np.concatenate([pts, np.asarray(new_pts, dtype=np.complex128), sec.vertices[own]])
-        quads = np.concatenate([quads, gl[np.asarray(sec.quads)]])
-        cell = np.concatenate([cell, np.full(len(sec.quads), -2 - k)])
+        gl[on] = rung[1:-1]
+        own = np.flatnonzero(gl < 0)
+        gl[own] = pts.size + np.arange(own.size)
+        pts = np.concatenate([pts, cp[own]])
+        quads = np.concatenate([quads, gl[cq]])
+        cell = np.concatenate([cell, np.full(len(cq), -2 - k)])
     return CorridorMesh(pts, quads, cell, lay)
 
 
-def _mid(vertices: np.ndarray, gamma: tuple[int, ...]) -> complex:
-    """Midpoint of a round cap's rung."""
-    return 0.5 * (vertices[gamma[0]] + vertices[gamma[-1]])
+#: Radius of the Mesh 1 / Mesh 2 core of a round end, relative to the half-width of its rung.
+CAP_CORE = 0.25
 
 
-def _round_cap_sector(vertices: np.ndarray, gamma: tuple[int, ...], n_pts: int, inner: float):
-    """The half-disk vertex sector of a round cap (paper §8, parabolic case, with the apex at
-    the midpoint O of the cap's rung and the two halves of the rung as its sides).
-
-    ``gamma`` runs from one end of the rung round the cap to the other. Its chords are split
-    (new mesh vertices on the polygon's edges), widest angle about O first, until it has
-    ``n_pts`` = 4·2^k + 1 points: the sector then has only full Mesh 2 levels, so its points on
-    the rung depend on nothing but ``n_pts`` and the sector radius, set to ``inner`` times the
-    rung's half-length. Two round caps built with the same (``n_pts``, ``inner``) put their
-    points at the same parameters across their rungs, so one chord of cells can join them.
-
-    Returns the sector mesh, the parameters of its points on the rung (from gamma[0] to
-    gamma[-1], 0 and 1 included), and the gamma points with their coarse vertex index (−1 for
-    new points).
-    """
+@functools.lru_cache(maxsize=8)
+def _cap_template(n_pts: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The core of a half-disk vertex sector (paper §8, parabolic case: Mesh 1 in two 90°
+    subsectors, then full Mesh 2 levels) for a crosscut of ``n_pts`` = 4·2^k + 1 points: apex
+    0, sides along the real axis, outer arc of radius :data:`CAP_CORE`. Returns its vertices,
+    its quads and the indices of its outer arc points s_0 … s_{P−1} (polar angles increasing
+    from 0 to π). Only full levels, so the core depends on ``n_pts`` alone."""
+    from .mesh import KIND_CONNECTION
     from .parabolic import mesh_vertex_sector
 
-    g = vertices[list(gamma)]
+    g = np.exp(1j * np.pi * np.arange(n_pts) / (n_pts - 1))
+    sec = mesh_vertex_sector(0j, 1 + 0j, np.pi, g, lam=CAP_CORE)
+    inner = np.asarray(sec.kind) != KIND_CONNECTION
+    q = np.asarray(sec.quads)[inner]
+    used = np.unique(q)
+    v = np.asarray(sec.vertices)[used]
+    q = np.searchsorted(used, q)
+    r = np.abs(v)
+    outer = np.flatnonzero(np.abs(r - r.max()) < 1e-9 * r.max())
+    # the point at angle π sorts last only if its angle reads π, not -π
+    ang = np.angle(v[outer])
+    ang[ang < -1e-12] += 2 * np.pi
+    outer = outer[np.argsort(ang)]
+    if outer.size != n_pts:
+        raise ThinPartError(f"round-end template: {outer.size} outer points for {n_pts}")
+    return v, q, outer
+
+
+def _cap_points(n_chords: int) -> int:
+    """Point count 4·2^k + 1 (at least 17) of a round end's crosscut with ``n_chords`` chords."""
+    return 4 * 2 ** int(np.ceil(np.log2(max(n_chords, 16) / 4))) + 1
+
+
+def _cap_mesh(g: np.ndarray, n_pts: int, gamma: list[int] | None = None):
+    """Half-disk sector of a round end with boundary points ``g`` (from one end of its rung
+    round to the other): ``g``'s chords split (widest angle about the rung's midpoint O first)
+    to ``n_pts`` points, the template core scaled to the rung, one ring of connection quads.
+    Returns (points on the crosscut, their coarse ids, all points, quads, connection angles)."""
     o = 0.5 * (g[0] + g[-1])
-    half = 0.5 * abs(g[-1] - g[0])
-    ang = np.unwrap(np.angle((g - o) / (g[0] - o)))
+    unit = (g[0] - o) / abs(g[0] - o)
+    half = abs(g[0] - o)
+    ang = np.unwrap(np.angle((g - o) / unit))
     span = np.diff(ang)
     k = np.ones(span.size, dtype=np.int64)
     if k.sum() > n_pts - 1:
         raise ThinPartError("a round end of the corridor has more points than its sector takes")
     while k.sum() < n_pts - 1:
         k[np.argmax(span / k)] += 1
-    pts: list[complex] = []
-    ids: list[int] = []
-    for j in range(g.size - 1):
-        for i in range(int(k[j])):
-            pts.append(g[j] + (g[j + 1] - g[j]) * i / k[j])
-            ids.append(int(gamma[j]) if i == 0 else -1)
-    pts.append(g[-1])
-    ids.append(int(gamma[-1]))
-    gp = np.asarray(pts)
-    lam = inner * half / float(np.min(np.abs(gp - o)))
-    try:
-        sec = mesh_vertex_sector(o, g[0] - o, np.pi, gp, lam=lam, max_tilt_deg=25.0)
-    except ThinPartError as exc:
-        raise ThinPartError(f"round end near ({o.real:.6g}, {o.imag:.6g}): {exc.args[0]}") from exc
-    t = (sec.vertices - g[0]) / (g[-1] - g[0])
-    on = np.abs(t.imag) < 1e-9
-    params = np.unique(np.clip(t.real[on], 0.0, 1.0))
-    params[0], params[-1] = 0.0, 1.0
-    return sec, params, gp, ids
+    j = np.repeat(np.arange(g.size - 1), k)
+    i = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    gp = np.r_[g[j] + (g[j + 1] - g[j]) * i / k[j], g[-1]]
+    ids = None
+    if gamma is not None:
+        ids = [*np.where(i == 0, np.asarray(gamma)[j], -1).tolist(), int(gamma[-1])]
+    tv, tq, outer = _cap_template(n_pts)
+    allp = np.concatenate([gp, o + half * unit * tv])
+    kk = np.arange(n_pts - 1)
+    s_ = n_pts + outer
+    conn = np.column_stack([s_[kk], kk, kk + 1, s_[kk + 1]])
+    quads = np.concatenate([tq + n_pts, conn])
+    c = allp[conn] - allp[conn][:, :1]
+    e = np.roll(c, -1, axis=1) - c
+    a_ = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
+    a_ = np.where(a_ < 0, a_ + 360.0, a_)
+    return gp, ids, allp, quads, a_
+
+
+def _round_cap_sector(vertices: np.ndarray, gamma: tuple[int, ...], n_pts: int):
+    """The half-disk vertex sector of a round cap: the apex is the midpoint O of the cap's
+    rung and the two halves of the rung are its sides (paper §8, parabolic case).
+
+    ``gamma`` runs from one end of the rung round the cap to the other. Its chords are split
+    (new mesh vertices on the polygon's edges), widest angle about O first, until it has
+    ``n_pts`` points g_k. The sector is the core of :func:`_cap_template` scaled to the rung,
+    joined to the g_k by one ring of connection quads (s_k, g_k, g_{k+1}, s_{k+1}) whose angles
+    are checked. Every round cap with the same ``n_pts`` therefore puts its points at the same
+    parameters across its rung, so one chord of cells can join two round ends.
+
+    Returns ``(points, quads, params, gamma_ids)``: the sector's points (the g_k first), quads,
+    the parameters of its points on the rung (from gamma[0] to gamma[-1], 0 and 1 included) and
+    the coarse vertex index of each g_k (−1 for the points that split chords).
+    """
+    g = vertices[list(gamma)]
+    _, ids, allp, quads, a_ = _cap_mesh(g, n_pts, list(gamma))
+    o = 0.5 * (g[0] + g[-1])
+    if a_.min() < 60.0 or a_.max() > 120.0:
+        raise ThinPartError(
+            f"the round end near ({o.real:.6g}, {o.imag:.6g}) is not round enough about the "
+            f"middle of its crosscut (connection angles [{a_.min():.1f}°, {a_.max():.1f}°])"
+        )
+    tv = _cap_template(n_pts)[0]
+    on = np.abs(tv.imag) < 1e-12 * np.abs(tv).max()
+    params = np.unique(np.r_[0.0, 1.0, 0.5 * (1.0 - tv.real[on] / 1.0)])
+    return allp, quads, params, ids
 
 
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
