@@ -83,7 +83,7 @@ _OPTION_SPECS: dict[str, tuple[str, str, float, float, float, int]] = {
     "inner_height": ("inner triangle h", "float", 0.05, 2.0, 0.05, 3),
     "crosscut_ratio": ("crosscut ratio", "float", 4.0, 1e4, 4.0, 1),
     "lemma_A": ("Lemma 2.2 factor A", "float", 1.01, 1e4, 1.0, 2),
-    "channel_delta": ("channel δ", "float", 0.001, 0.999, 0.01, 3),
+    "channel_delta": ("channel δ", "float", 0.001, 0.74, 0.01, 3),
     "sector_ratio": ("sector ratio λ", "float", 0.01, 0.99, 0.05, 3),
     "rotations": ("disk rotations tried", "int", 1, 40, 1, 0),
 }

@@ -7,6 +7,8 @@ Schwarz–Christoffel map for the fewest cover arcs and conformal collars.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from .errors import DiskConstructionError
@@ -24,7 +26,11 @@ def _arc_gaps(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _choose_arcs(
-    centre: np.ndarray, half: np.ndarray, gap: np.ndarray, options: MeshOptions
+    centre: np.ndarray,
+    half: np.ndarray,
+    gap: np.ndarray,
+    options: MeshOptions,
+    where: Callable[[int], str] | None = None,
 ) -> np.ndarray:
     """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc).
 
@@ -41,6 +47,7 @@ def _choose_arcs(
     a slightly shorter arc with the same centre up to 2 %), and the A-fold expansion
     (half-width ≈ √A·φ ≤ g/2) stays clear of the neighbours. Where the residual offset is
     large the conformal collar (:mod:`quadmesh.thin.collar`) straightens the crosscut.
+    ``where(j)`` names core j in the user's terms in the error raised when no arc fits.
     """
     two_pi = 2 * np.pi
     sq = np.sqrt(options.lemma_A)
@@ -64,10 +71,12 @@ def _choose_arcs(
     jc, phi, score = quick
     if np.any(score >= 10.0):
         j = int(np.flatnonzero(score >= 10.0)[0])
+        place = f"the point at {centre[j]:.6f} rad of the circle" if where is None else where(j)
         raise DiskConstructionError(
-            f"no tessellation arc fits around prevertex cluster {j} (core half-width "
-            f"{half[j]:.3g} rad, gap to its neighbours {gap[j]:.3g} rad): the thick piece is "
-            "too crowded there"
+            f"no arc of the disk construction fits around {place} (the conformal map leaves "
+            f"only {gap[j]:.3g} rad of the circle between it and its neighbours): this part of "
+            "the polygon is too crowded there; use fewer, longer edges near it, or widen the "
+            "polygon there"
         )
     half_i = phi / (1.02 * sq)
     return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i])
@@ -115,13 +124,17 @@ def vertex_intervals(theta: np.ndarray, options: MeshOptions) -> np.ndarray:
 
 
 def piece_intervals(
-    theta: np.ndarray, stretches: list[tuple[int, int]], options: MeshOptions
+    theta: np.ndarray,
+    stretches: list[tuple[int, int]],
+    options: MeshOptions,
+    name: Callable[[tuple[str, int]], str] | None = None,
 ) -> tuple[np.ndarray, list[tuple[str, int]]]:
     """Arcs I_j of a thick piece: one per vertex outside the crosscut stretches and one per
     stretch (piece vertices ``start..stop`` modulo the piece size, counter-clockwise).
 
     Returns the (m, 2) arcs in boundary order and, per arc, ("vertex", piece vertex) or
-    ("crosscut", stretch index).
+    ("crosscut", stretch index). ``name(owner)`` says such an owner in the user's terms (for
+    the message raised when no arc fits around it).
     """
     k = theta.size
     two_pi = 2 * np.pi
@@ -150,8 +163,10 @@ def piece_intervals(
     after = np.mod(np.roll(lo_s, -1) - hi_s, two_pi)
     gap = np.empty_like(before)
     gap[order] = np.minimum(before, after)
-    arcs = _choose_arcs(centre, half, gap, options)
-    return arcs, [c[2] for c in cores]
+    owners = [c[2] for c in cores]
+    where = None if name is None else (lambda j: name(owners[j]))
+    arcs = _choose_arcs(centre, half, gap, options, where)
+    return arcs, owners
 
 
 #: Largest number of arcs I_j for which :func:`best_rotation` tries several rotations: each
@@ -186,7 +201,10 @@ def _off_centre_cores(
 
 
 def best_rotation(
-    theta: np.ndarray, stretches: list[tuple[int, int]], options: MeshOptions
+    theta: np.ndarray,
+    stretches: list[tuple[int, int]],
+    options: MeshOptions,
+    name: Callable[[tuple[str, int]], str] | None = None,
 ) -> tuple[float, np.ndarray, list[tuple[str, int]]]:
     """The normalisation of a thick piece's map among ``options.rotations`` rotations of D.
 
@@ -201,12 +219,12 @@ def best_rotation(
     which costs about as many quads as ROTATION_COLLAR_COST cover arcs. ψ = 2π/5·k/R
     (k < R = options.rotations) are tried and the one with the smallest cover arcs +
     ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ). Returns ψ, the arcs
-    I_j and their owners for θ + ψ (:func:`piece_intervals`).
+    I_j and their owners for θ + ψ (:func:`piece_intervals`; ``name`` as there).
     """
     from .disk import build_region
 
     two_pi = 2 * np.pi
-    first = piece_intervals(theta, stretches, options)
+    first = piece_intervals(theta, stretches, options, name)
     count = max(1, int(options.rotations))
     if count == 1 or first[0].shape[0] > ROTATION_MAX_ARCS:
         return 0.0, *first

@@ -96,9 +96,10 @@ def _collar(asm, thin, gamma, gamma_gl, walls, toward, part, what):
     return np.asarray(col.vertices)[si], cgl[si]
 
 
-def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin):
+def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin, dec):
     """Vertex sector (paper §8, parabolic case), through a conformal collar when the
-    crosscut is not round about the vertex."""
+    crosscut is not round about the vertex. Messages name the vertex as the user numbered
+    it (``dec.polygon``)."""
     from .thin.collar import vertex_walls
     from .thin.parabolic import mesh_vertex_sector
 
@@ -107,35 +108,38 @@ def _sector(corner, gamma: np.ndarray, gamma_gl: np.ndarray, options, asm, thin)
         sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
     except ThinPartError as first:
         walls = vertex_walls(*args)
-        what = f"vertex {corner.index}: {first.args[0]}"
+        vertex = dec.polygon.describe_vertex(corner.index)
+        what = f"{vertex}: {first.args[0]}"
         part = ("parabolic", corner.index, 1)
         gamma, gamma_gl = _collar(asm, thin, gamma, gamma_gl, walls, "inner", part, what)
         try:
             sec = mesh_vertex_sector(*args, gamma, lam=options.sector_ratio)
         except ThinPartError as exc:
-            raise ThinPartError(f"vertex {corner.index}: {exc.args[0]}") from exc
+            raise ThinPartError(f"{vertex}: {exc.args[0]}") from exc
     fixed = dict(zip(np.asarray(sec.gamma_index).tolist(), gamma_gl.tolist()))
     gl = _glue(asm, np.asarray(sec.vertices), sec.quads, fixed, 1)
     thin.append(ThinPartResult("parabolic", corner.index, sec, gl))
 
 
-def _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin):
+def _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin, dec):
     """Channel connector (paper §8, hyperbolic case) between the two thick pieces'
-    crosscut images, each first straightened by a conformal collar if needed."""
+    crosscut images, each first straightened by a conformal collar if needed. Messages name
+    the channel by its wall edges as the user numbered them (``dec``)."""
     from .thin.channel import mesh_channel
 
     walls = _walls_of(ch.frame)
     try:
         cm = mesh_channel(ga, gb, walls=walls)
     except ThinPartError as first:
-        what = f"channel {ch.id}: {first.args[0]}"
+        passage = dec.describe_channel(ch.id)
+        what = f"{passage}: {first.args[0]}"
         part = ("hyperbolic", ch.id, 2)
         ga, ga_gl = _collar(asm, thin, ga, ga_gl, walls, "outer", part, what)
         gb, gb_gl = _collar(asm, thin, gb, gb_gl, walls, "inner", part, what)
         try:
             cm = mesh_channel(ga, gb, walls=walls)
         except ThinPartError as exc:
-            raise ThinPartError(f"channel {ch.id}: {exc.args[0]}") from exc
+            raise ThinPartError(f"{passage}: {exc.args[0]}") from exc
     fixed = dict(zip(np.asarray(cm.gamma1_index).tolist(), ga_gl.tolist()))
     fixed.update(zip(np.asarray(cm.gamma2_index).tolist(), gb_gl.tolist()))
     gl = _glue(asm, np.asarray(cm.vertices), cm.quads, fixed, 2)
@@ -203,9 +207,9 @@ def glue_thin_parts(
     for corner in dec.corners:
         report("vertex sectors", 0.7 + 0.1 * corner.index / len(dec.corners))
         pts, gl = gam[("vertex", int(corner.index))]
-        _sector(corner, pts, gl, options, asm, thin)
+        _sector(corner, pts, gl, options, asm, thin, dec)
     for ch in dec.channels:
         report("channels", 0.8)
         (ga, ga_gl), (gb, gb_gl) = gam[("channel", ch.id, 0)], gam[("channel", ch.id, 1)]
-        _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin)
+        _channel(ch, ga, ga_gl, gb, gb_gl, asm, thin, dec)
     return thin

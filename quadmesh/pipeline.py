@@ -159,7 +159,8 @@ def mesh_polygon(
             if corridor_why:
                 raise type(exc)(
                     f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
-                    f"{corridor_why}"
+                    f"{corridor_why}. A wider passage or longer straight walls there would help "
+                    "both ways"
                 ) from exc
             raise
 
@@ -192,6 +193,20 @@ def mesh_polygon(
     )
 
 
+def _more_help(options: MeshOptions) -> str:
+    """What the user can try when the adaptive loop (or its absence) left a part unmeshed."""
+    if not options.adaptive:
+        return (
+            "Try MeshOptions(adaptive=True) (it lowers the depth step and raises n until the "
+            "angles fit), or use fewer, longer edges near this place"
+        )
+    more = max(ADAPTIVE_N[-1], 2 * options.max_n)
+    return (
+        f"Try MeshOptions(max_n={more}) (slower, more quads), or use fewer, longer edges near "
+        "this place"
+    )
+
+
 def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]):
     """Bishop's construction proper: every thick piece's map, disk mesh and push-forward, then
     the thin parts glued onto them, in the adaptive loop (one (n, depth step) for all pieces).
@@ -199,7 +214,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
     work: list[PieceWork] = []
     for i, piece in enumerate(dec.thick):
         report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
-        work.append(prepare_piece(piece, options, timings))
+        work.append(prepare_piece(piece, options, timings, dec))
 
     # One (n, depth step) for all pieces: both sides of a channel must carry the same
     # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles
@@ -218,7 +233,9 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
             if not bad_kind:
                 break
             what = ", ".join(
-                f"{k} [{v[0]:.2f}, {v[1]:.2f}] in piece {v[2]}" for k, v in bad_kind.items()
+                f"{k.replace('_', ' ')} cells [{v[0]:.2f}°, {v[1]:.2f}°] in "
+                f"{dec.describe_piece(v[2])}"
+                for k, v in bad_kind.items()
             )
             if "pentagon" in bad_kind and options.adaptive and n < options.max_n:
                 n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
@@ -232,8 +249,9 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
                 fixes.append(f"{what}: n raised to {n}")
             else:
                 raise DiskConstructionError(
-                    f"pushed-forward disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
-                    f"step {step:g}); the conformal map distorts the disk mesh too much"
+                    f"mapped disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
+                    f"step {step:g}); the conformal map distorts the disk mesh too much there. "
+                    f"{_more_help(options)}"
                 )
 
         asm = Assembler()
@@ -250,7 +268,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
             # only a finer depth sequence puts more crosscut vertices there; n refines only
             # the pentagon part (measured on a 331° stroke end and a 1:100 V-slit).
             if not options.adaptive:
-                raise
+                raise ThinPartError(f"{exc.args[0]}. {_more_help(options)}") from exc
             if step > MIN_DEPTH_STEP:
                 step = max(step / 2, MIN_DEPTH_STEP)
                 fixes.append(f"{exc.args[0]}: depth step lowered to {step:g}")
@@ -258,7 +276,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
                 n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
                 fixes.append(f"{exc.args[0]}: n raised to {n}")
             else:
-                raise
+                raise ThinPartError(f"{exc.args[0]}. {_more_help(options)}") from exc
             continue
         timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
         break

@@ -7,6 +7,7 @@ I_j (:mod:`quadmesh.arcs`), build Lemma 2.2's region W and its mesh (Lemmas 4.1,
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -37,9 +38,18 @@ ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
 ANGLE_TOL = 1e-6
 
 
+#: How a piece is named in messages when its decomposition is not at hand.
+THIS_PIECE = "this part of the polygon"
+
+
 @dataclass
 class PieceWork:
-    """Work data of one thick piece: its map, its arcs and what each arc belongs to."""
+    """Work data of one thick piece: its map, its arcs and what each arc belongs to.
+
+    ``what`` names the piece in the user's terms for messages (their vertex numbers and
+    coordinates, :meth:`quadmesh.decompose.Decomposition.describe_piece`) and ``name(owner)``
+    the polygon vertex or narrow passage an arc's owner stands for.
+    """
 
     index: int
     z: np.ndarray
@@ -50,35 +60,77 @@ class PieceWork:
     stretches: list
     repair: object = None
     lemma_A: float | None = None  # set when the piece fell back to FALLBACK_A
+    what: str = THIS_PIECE
+    name: Callable[[tuple[str, int]], str] | None = None
+
+    def owner_name(self, j: int) -> str:
+        """Arc j's owner (a polygon vertex or a narrow passage) in the user's terms."""
+        if self.name is None or not 0 <= j < len(self.owners):
+            return f"its boundary point {j}"
+        return self.name(self.owners[j])
 
 
-def prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> PieceWork:
-    """Solve the Schwarz–Christoffel map of a thick piece and choose its arcs I_j."""
+def owner_namer(dec, piece) -> Callable[[tuple[str, int]], str]:
+    """``name(owner)`` for the arcs of ``piece`` (an entry of ``dec.thick``): ("vertex", k) ->
+    the polygon vertex behind piece vertex k, ("crosscut", s) -> the mouth of the narrow
+    passage behind crosscut stretch s, both in the user's numbering and coordinates."""
+    poly = dec.polygon
+    source = np.asarray(piece.source)
+
+    def name(owner: tuple[str, int]) -> str:
+        kind, k = owner
+        if kind == "vertex" and source[k] >= 0:
+            return poly.describe_vertex(int(source[k]))
+        if kind == "crosscut":
+            return "the mouth of " + dec.describe_channel(piece.crosscuts[k].channel)
+        return f"the point {poly.user_point(piece.z[k])}"
+
+    return name
+
+
+def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=None) -> PieceWork:
+    """Solve the Schwarz–Christoffel map of a thick piece and choose its arcs I_j.
+
+    ``dec`` (the :class:`~quadmesh.decompose.Decomposition` the piece belongs to) lets the
+    messages name the piece and its vertices in the user's terms."""
     from .conformal import DiskMap
 
+    what = THIS_PIECE if dec is None else dec.describe_piece(piece.index)
+    name = None if dec is None else owner_namer(dec, piece)
     t0 = time.perf_counter()
     try:
         fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
     except ConformalMapError as exc:
-        raise ConformalMapError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+        raise ConformalMapError(f"{what}: {exc.args[0]}") from exc
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(
-            f"thick piece {piece.index} ({len(piece.z)} vertices): the parameter problem broke "
-            f"down numerically ({exc}); the piece is too crowded for a disk map"
+            f"{what} ({len(piece.z)} vertices): its conformal map broke down numerically "
+            f"({exc}); this part is too crowded for a disk map: use fewer, longer edges along "
+            "it, or widen its narrow passages"
         ) from exc
     timings["conformal"] = timings.get("conformal", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
     theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
     stretches = [(int(c.start), int(c.stop)) for c in piece.crosscuts]
     try:
-        psi, intervals, owners = best_rotation(theta, stretches, options)
+        psi, intervals, owners = best_rotation(theta, stretches, options, name)
     except DiskConstructionError as exc:
-        raise DiskConstructionError(f"thick piece {piece.index}: {exc.args[0]}") from exc
+        raise DiskConstructionError(f"{what}: {exc.args[0]}{_spacing_help(options)}") from exc
     if psi != 0.0:
         fmap = RotatedMap(fmap, psi)
         theta = np.asarray(fmap.theta)
     timings["intervals"] = timings.get("intervals", 0.0) + time.perf_counter() - t0
-    return PieceWork(piece.index, np.asarray(piece.z), fmap, theta, intervals, owners, stretches)
+    return PieceWork(
+        piece.index,
+        np.asarray(piece.z),
+        fmap,
+        theta,
+        intervals,
+        owners,
+        stretches,
+        what=what,
+        name=name,
+    )
 
 
 def deepest_landmark(inner_height: float) -> float:
@@ -122,20 +174,16 @@ def disk_and_image(
         # paper-sized A = 16 with arcs of 1/16 of the neighbouring gap (same cores, same
         # crosscut vertex counts, so the channels still match)
         if pd.lemma_A is not None or options.lemma_A >= FALLBACK_A:
-            raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
+            raise DiskConstructionError(_disk_failure(pd, exc) + _spacing_help(options)) from exc
         fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
         try:
-            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback)
+            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback, pd.name)
             disk = build(intervals, FALLBACK_A)
         except DiskConstructionError as exc2:
-            raise DiskConstructionError(
-                f"thick piece {pd.index}: {exc.args[0]} (and with A = {FALLBACK_A:g}: "
-                f"{exc2.args[0]})"
-            ) from exc2
+            raise DiskConstructionError(_disk_failure(pd, exc, exc2)) from exc2
         if owners != pd.owners:
             raise DiskConstructionError(
-                f"thick piece {pd.index}: {exc.args[0]} (the A = {FALLBACK_A:g} fallback "
-                "changed the arcs' owners)"
+                _disk_failure(pd, exc, note="the wider spacing grouped its vertices differently")
             ) from exc
         pd.intervals, pd.lemma_A = intervals, FALLBACK_A
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
@@ -144,10 +192,15 @@ def disk_and_image(
         image = push_forward(pd.fmap, disk, pd.theta, pd.z)
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(
-            f"thick piece {pd.index}: evaluating the map at the disk mesh failed ({exc})"
+            f"{pd.what}: evaluating its conformal map at the disk mesh failed ({exc}); this "
+            "part is too crowded for the map: use fewer, longer edges along it, or widen its "
+            "narrow passages"
         ) from exc
     if not np.all(np.isfinite(image)):
-        raise ConformalMapError(f"thick piece {pd.index}: the map gave non-finite mesh vertices")
+        raise ConformalMapError(
+            f"{pd.what}: its conformal map gave non-finite mesh vertices; this part is too "
+            "crowded for the map: use fewer, longer edges along it, or widen its narrow passages"
+        )
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
     pd.repair = None
     if options.repair:
@@ -157,6 +210,39 @@ def disk_and_image(
 
 #: A (and crosscut ratio) of the per-piece fallback when Lemma 2.2's arcs interlock.
 FALLBACK_A = 16.0
+
+
+def _spacing_help(options: MeshOptions) -> str:
+    """A hint to lower ``lemma_A`` when it is above its default (wider spacing of the disk
+    construction's arcs needs more room between a piece's vertices)."""
+    default = MeshOptions().lemma_A
+    if options.lemma_A <= default:
+        return ""
+    return f" (or lower MeshOptions(lemma_A={options.lemma_A:g}) towards the default {default:g})"
+
+
+def _disk_failure(
+    pd: PieceWork,
+    exc: DiskConstructionError,
+    exc2: DiskConstructionError | None = None,
+    note: str = "",
+) -> str:
+    """The message of a disk construction that failed for piece ``pd``: where (the polygon
+    vertices or passages behind the arcs the error names), why, and what would help."""
+    arcs = getattr(exc2 if exc2 is not None else exc, "arcs", ())
+    near = " and ".join(pd.owner_name(j) for j in arcs)
+    where = f" near {near}" if near else ""
+    why = exc.args[0]
+    if exc2 is not None:
+        why += f"; with the wider spacing MeshOptions(lemma_A={FALLBACK_A:g}) too: {exc2.args[0]}"
+    if note:
+        why += f" ({note})"
+    return (
+        f"{pd.what}: the disk construction cannot place its arcs{where}: {why}. The conformal "
+        "map crowds this part's vertices together there: use fewer, longer edges near them, "
+        "or widen the polygon there"
+    )
+
 
 #: Pushed-forward angles this far outside [60°, 120°] are not the O(1/n) distortion that the
 #: adaptive loop cures but numerical breakdown (inverted or collapsed quads).
@@ -178,12 +264,14 @@ def refuse_degenerate(pd: PieceWork, ang: np.ndarray) -> None:
     gap = float(np.min(np.diff(np.r_[th, th[0] + 2 * np.pi])))
     if gap >= CROWDED_GAP:
         return
+    what = getattr(pd, "what", THIS_PIECE)
     raise DiskConstructionError(
-        f"thick piece {pd.index}: its prevertices crowd to gaps of {gap:.2g} rad and the "
-        f"pushed-forward disk mesh is numerically degenerate there (angles "
+        f"{what}: its conformal map crowds boundary points to {gap:.2g} rad apart and the "
+        f"mapped disk mesh is numerically degenerate there (angles "
         f"[{float(ang.min()):.1f}°, {float(ang.max()):.1f}°]): double precision cannot resolve "
-        "the map of this piece (typically a long curved corridor whose walls are chains of "
-        "short edges); a larger n cannot help"
+        "the map of this part (typically a long curved corridor whose walls are chains of "
+        "short edges); a larger n cannot help. Widen this passage, or draw its walls as long "
+        "straight edges"
     )
 
 
@@ -200,7 +288,10 @@ def repair_note(pd: PieceWork) -> tuple[str, ...]:
     ThickPieceResult.fixes."""
     notes: tuple[str, ...] = ()
     if pd.lemma_A is not None:
-        notes = (f"Lemma 2.2 arcs interlocked at the default A: A = {pd.lemma_A:g} used",)
+        notes = (
+            "the disk construction's arcs were too close together at the default spacing: "
+            f"rebuilt with the wider spacing lemma_A = {pd.lemma_A:g}",
+        )
     rep = pd.repair
     if rep is None or rep.moved.size == 0:
         return notes

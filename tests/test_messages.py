@@ -13,6 +13,7 @@ import math
 import pathlib
 import re
 
+import numpy as np
 import pytest
 
 from quadmesh.decompose import DecomposeOptions
@@ -144,3 +145,143 @@ def test_every_accepted_channel_delta_gives_valid_decompose_options() -> None:
     for delta in (0.01, 0.15, 0.5, 0.749):
         opt = MeshOptions(channel_delta=delta)
         assert DecomposeOptions(delta=opt.channel_delta).overlap_depth < 1 / delta
+
+
+# --------------------------------------------------------------------------------------
+# refusals of mesh_polygon speak about the user's polygon and say what would help
+
+#: Words that name the mesher's internals (or files the user does not have), not their polygon.
+INTERNAL = re.compile(
+    r"thick piece|\bpiece \d|Lemma|\bJ_|\bI_\d|γ_|\bchannel \d|\bvertex \d+:|\bA = \d|\.md\b|§"
+)
+#: A suggestion of what to change (the polygon or an option).
+SUGGESTION = re.compile(r"\b(?:[Tt]ry|use|[Ww]iden|draw|lower|help)\b")
+#: "vertex 7 at (1.5, -2)": a polygon vertex in the user's numbering and coordinates.
+VERTEX_AT = re.compile(r"vertex (\d+) at \((-?[\d.e+-]+), (-?[\d.e+-]+)\)")
+XY = r"\(-?[\d.e+-]+, -?[\d.e+-]+\)"
+
+
+def _pen_arc(degrees: float, width: float = 0.5) -> np.ndarray:
+    """A pen stroke along a circular arc of radius 3 with round caps at both ends (clockwise,
+    as shapely writes it): a long curved corridor whose walls are chains of short edges."""
+    import shapely
+
+    a = np.radians(np.linspace(0.0, degrees, 60))
+    line = shapely.LineString(np.column_stack([3 * np.cos(a), 3 * np.sin(a)]))
+    g = line.buffer(width / 2, quad_segs=8).simplify(0.02 * width)
+    return np.asarray(g.exterior.coords)[:-1]
+
+
+def _star(shift: int = 7) -> np.ndarray:
+    """A random 30-gon given clockwise and starting at another vertex, so that the user's
+    numbering differs from the mesher's counter-clockwise one."""
+    from quadmesh.outlines import random_star
+
+    star = random_star(np.random.default_rng(5), 30)
+    return np.roll(star[::-1], shift, axis=0)
+
+
+def _sstroke() -> np.ndarray:
+    from test_pipeline_thin import SSTROKE_6
+
+    return np.array(SSTROKE_6)
+
+
+def _squeezed_disk(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Run the disk construction with a 40 times larger expansion factor than asked for, so
+    that it genuinely refuses the arcs the pipeline chose (at A and at the fallback A)."""
+    import quadmesh.disk as disk_pkg
+
+    real = disk_pkg.disk_mesh
+
+    def squeezed(intervals, *, A=None, **kw):
+        return real(intervals, A=40 * A, **kw)
+
+    monkeypatch.setattr(disk_pkg, "disk_mesh", squeezed)
+
+
+#: name -> (polygon, options, stage of the refusal, what the message must say).
+REFUSALS = {
+    # a 300° stroke: the corridor mesher finds no layout and the conformal map crowds
+    "curved_corridor": (
+        lambda: _pen_arc(300.0),
+        MeshOptions(),
+        "conformal",
+        r"through vertices \d+ to \d+ \(around " + XY + r"\).*corridor.*would help",
+    ),
+    # the 331° end of an S stroke needs a finer crosscut than depth step 1 gives
+    "thin_no_adaptive": (
+        _sstroke,
+        MeshOptions(lemma_A=16, crosscut_ratio=16, rotations=1, adaptive=False),
+        "thin",
+        r"^\[thin\] vertex 0 at \(-1\.1093, -0\.749982\):.*MeshOptions\(adaptive=True\)",
+    ),
+    # n = 2 pentagons pushed forward leave [60°, 120°] and nothing may raise n
+    "disk_angles_no_adaptive": (
+        _star,
+        MeshOptions(n=2, adaptive=False, repair=False),
+        "disk",
+        r"pentagon cells \[.*\] in the part of the polygon through vertices .*adaptive=True",
+    ),
+    # so large an expansion factor that no arc fits between neighbouring vertices
+    "no_arc_fits": (
+        _star,
+        MeshOptions(lemma_A=1e4),
+        "disk",
+        r"no arc of the disk construction fits around vertex \d+ at .*lower "
+        r"MeshOptions\(lemma_A=10000\)",
+    ),
+    # the disk construction refuses the chosen arcs, also at the fallback spacing
+    "disk_refuses_arcs": (
+        _star,
+        MeshOptions(),
+        "disk",
+        r"cannot place its arcs near vertex \d+ at .*lemma_A=16.*fewer, longer edges",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(REFUSALS))
+def test_refusal_names_the_users_polygon_and_what_would_help(
+    name: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each stage's refusal names the user's vertex numbers and coordinates (checked against
+    the input points), never the mesher's internal objects, and suggests a change."""
+    from quadmesh import QuadmeshError, mesh_polygon
+
+    make, options, stage, must = REFUSALS[name]
+    if name == "disk_refuses_arcs":
+        _squeezed_disk(monkeypatch)
+    points = make()
+    with pytest.raises(QuadmeshError) as info:
+        mesh_polygon(points, options)
+    msg = str(info.value)
+    assert info.value.stage == stage, msg
+    assert re.search(must, msg, flags=re.S), msg
+    assert not INTERNAL.search(msg), msg
+    assert SUGGESTION.search(msg), msg
+    # every "vertex k at (x, y)" is input point k, in the user's own coordinates
+    named = VERTEX_AT.findall(msg)
+    assert named or re.search(r"vertices \d+ to \d+", msg), msg
+    for k, x, y in named:
+        assert np.allclose(points[int(k)], [float(x), float(y)], rtol=1e-5, atol=1e-5), msg
+
+
+def test_adaptive_fix_notes_name_the_users_polygon() -> None:
+    """The adaptive loop's notes (MeshResult pieces' fixes) say where in the user's polygon
+    it had to raise n, not which internal piece."""
+    from quadmesh import mesh_polygon
+
+    points = _star()
+    r = mesh_polygon(points, MeshOptions(n=2, repair=False))
+    notes = [f for p in r.pieces for f in p.fixes]
+    assert any(
+        re.search(r"pentagon cells .* in the part of the polygon through vertices .*: n raised", f)
+        for f in notes
+    ), notes
+    for f in notes:
+        assert not INTERNAL.search(f), f
+        named = VERTEX_AT.findall(f)
+        assert named or re.search(r"through vertices \d+ to \d+", f), f
+        for k, x, y in named:
+            assert np.allclose(points[int(k)], [float(x), float(y)], rtol=1e-5, atol=1e-5), f

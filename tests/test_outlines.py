@@ -176,11 +176,16 @@ def test_interlocking_arcs_fall_back_to_a16(monkeypatch):
     def interlocking(intervals, *, A=None, **kw):
         seen.append(A)
         if A < 16:
-            raise DiskConstructionError("the chains of J_1 and J_2 interlock: A is too small")
+            raise DiskConstructionError(
+                "the pentagon chains about arcs 1 and 2 interlock: the expansion factor "
+                f"{A:g} is too small for these arcs"
+            )
         return real(intervals, A=A, **kw)
 
     monkeypatch.setattr(disk_pkg, "disk_mesh", interlocking)
     r = mesh_polygon(_notch(1e-3))
     assert seen[:2] == [4.0, 16.0]
     assert r.verification.ok and r.quality.n_angles_outside == 0
-    assert any("A = 16 used" in f for p in r.pieces for f in p.fixes)
+    notes = [f for p in r.pieces for f in p.fixes]
+    assert any("rebuilt with the wider spacing lemma_A = 16" in f for f in notes), notes
+    assert not any("Lemma" in f or "A = 16 used" in f for f in notes), notes

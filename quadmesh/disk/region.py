@@ -259,6 +259,14 @@ class RegionW:
 
 
 # --------------------------------------------------------------------------- helpers
+def _arc_error(message: str, *arcs: int) -> DiskConstructionError:
+    """A DiskConstructionError about the given input arcs (rows of ``intervals``), kept in its
+    ``arcs`` attribute so that a caller can say which parts of a polygon they belong to."""
+    err = DiskConstructionError(message)
+    err.arcs = tuple(int(a) for a in arcs)
+    return err
+
+
 def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
     try:
         iv = np.asarray(intervals)
@@ -275,20 +283,23 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
         raise DiskConstructionError("interval lengths must be positive")
     if np.any(A * iv[:, 1] >= math.pi):
         j = int(np.argmax(A * iv[:, 1]))
-        raise DiskConstructionError(
+        raise _arc_error(
             f"arc {j} of the circle is too long for the disk construction: expanded {A:g}-fold "
-            f"it would span {A * iv[j, 1]:.4g} rad >= π (half the circle), against the "
-            "hypothesis of Lemma 2.2 in Bishop's paper"
+            f"it would span {A * iv[j, 1]:.4g} rad >= π (half the circle); a shorter arc or a "
+            "smaller expansion factor is needed",
+            j,
         )
     small = math.sqrt(A) * iv[:, 1] < MIN_EXPANDED_ARC
     if np.any(small):
         j = int(np.argmin(iv[:, 1]))
-        raise DiskConstructionError(
-            f"{int(small.sum())} interval(s) too small for the disk construction in extended "
-            f"precision: I_{j} (length {iv[j, 1]:.3g} rad at angle {np.mod(iv[j, 0], TWO_PI):.6f})"
-            f" has √A·|I_{j}| = {math.sqrt(A) * iv[j, 1]:.3g} rad, below the resolution limit "
-            f"{MIN_EXPANDED_ARC:g} rad (tiles of that size near T carry relative position "
-            "errors of order 1e-3 even in extended precision and the pieces no longer fit)"
+        raise _arc_error(
+            f"{int(small.sum())} arc(s) of the circle too small for the disk construction in "
+            f"extended precision: arc {j} (length {iv[j, 1]:.3g} rad at angle "
+            f"{np.mod(iv[j, 0], TWO_PI):.6f}) expanded {math.sqrt(A):.3g}-fold spans "
+            f"{math.sqrt(A) * iv[j, 1]:.3g} rad, below the resolution limit "
+            f"{MIN_EXPANDED_ARC:g} rad (tiles of that size near the circle carry relative "
+            "position errors of order 1e-3 even in extended precision and no longer fit)",
+            j,
         )
     iv = np.column_stack([np.mod(iv[:, 0].astype(np.longdouble), TWO_PI_LD), iv[:, 1]])
     m = iv.shape[0]
@@ -301,10 +312,12 @@ def _validate(intervals: ArrayLike, A: float) -> NDArray[np.longdouble]:
         bad = gap <= need
         if np.any(bad):
             k = int(np.nonzero(bad)[0][0])
-            raise DiskConstructionError(
+            raise _arc_error(
                 f"arcs {order[k]} and {order[(k + 1) % m]} of the circle are too close for the "
-                f"disk construction: expanded {A:g}-fold they overlap, against the hypothesis "
-                "of Lemma 2.2 in Bishop's paper"
+                f"disk construction: expanded {A:g}-fold they overlap; shorter arcs or a "
+                "smaller expansion factor are needed",
+                int(order[k]),
+                int(order[(k + 1) % m]),
             )
     return iv
 
@@ -371,7 +384,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     match = arcs_match(fs, fl, js[:, None], jl[:, None])
     if not np.all(match.any(axis=1)):
         j = int(np.nonzero(~match.any(axis=1))[0][0])
-        raise DiskConstructionError(f"no pentagon edge found on γ_{j} at its top point")
+        raise _arc_error(f"no pentagon edge found on the geodesic over arc {j} at its top", j)
     k0 = np.argmax(match, axis=1)
     p1 = g0 @ REFLECTIONS[(k0 + 1) % 5]
     p2 = g0 @ REFLECTIONS[(k0 - 1) % 5]
@@ -383,7 +396,10 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     first_is_l = arc_contains_point(a1[:, 0], a1[:, 1], js)
     second_is_l = arc_contains_point(a2[:, 0], a2[:, 1], js)
     if np.any(first_is_l == second_is_l):
-        raise DiskConstructionError("J^1/J^2 do not each contain one endpoint of J")
+        raise DiskConstructionError(
+            "the tessellation arcs beside an arc's containing arc do not each hold one of its "
+            "endpoints"
+        )
     Jl = np.where(first_is_l[:, None], a1, a2)
     Jr = np.where(first_is_l[:, None], a2, a1)
     Pl = Isometry(
@@ -401,26 +417,30 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         checks = (
             (
                 _arcs_intersect(J[a_, 0], J[a_, 1], J[b_, 0], J[b_, 1]),
-                "J_{} and J_{} overlap: A = {:g} is too small for these intervals",
+                "the tessellation arcs containing arcs {} and {} overlap: the expansion "
+                "factor {:g} is too small for these arcs",
             ),
             (
                 _arcs_intersect(Jr[a_, 0], Jr[a_, 1], J[b_, 0], J[b_, 1])
                 | _arcs_intersect(Jl[b_, 0], Jl[b_, 1], J[a_, 0], J[a_, 1]),
-                "the chains of J_{} and J_{} interlock: A = {:g} is too small",
+                "the pentagon chains about arcs {} and {} interlock: the expansion factor "
+                "{:g} is too small for these arcs",
             ),
             (
                 arcs_match(Jr[a_, 0], Jr[a_, 1], Jl[b_, 0], Jl[b_, 1]),
-                "J^r_{} and J^l_{} are the same arc: A = {:g} is too small",
+                "the pentagon chains about arcs {} and {} end on the same tessellation "
+                "arc: the expansion factor {:g} is too small for these arcs",
             ),
             (
                 arc_contains_point(Jl[b_, 0], Jl[b_, 1], Jr[a_, 0]),
-                "J^r_{} and J^l_{} form a triple overlap: A = {:g} is too small",
+                "the pentagon chains about arcs {} and {} overlap three-fold: the "
+                "expansion factor {:g} is too small for these arcs",
             ),
         )
         for bad, msg in checks:
             if np.any(bad):
                 i = int(np.flatnonzero(bad)[0])
-                raise DiskConstructionError(msg.format(a_[i], b_[i], A))
+                raise _arc_error(msg.format(a_[i], b_[i], A), int(a_[i]), int(b_[i]))
 
     # ---- candidate K arcs: grow tiles, stop at J/Jl/Jr arcs and at arcs inside F-gaps
     chain_s = np.concatenate([J[:, 0], Jl[:, 0], Jr[:, 0]])
@@ -488,8 +508,8 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
             ok = (rs < r_) & (r_ < re)
             if not np.any(ok):
                 raise DiskConstructionError(
-                    f"cover construction failed in the gap after J_{k}: no I5 arc inside the "
-                    "gap contains the current point"
+                    f"cover construction failed in the gap after arc {k}: no tessellation arc "
+                    "inside the gap contains the current point"
                 )
             best = np.flatnonzero(ok)[np.lexsort((-cl[sel][ok], -re[ok]))[0]]
             add_cover(KIND_K, -1, np.mod(Je[pos] + rs[best], TWO_PI_LD), cl[sel][best])
@@ -542,7 +562,10 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     bad_j = (kinds == KIND_J) & (n_edges != 3)
     if np.any(bad_j):
         i = int(np.flatnonzero(bad_j)[0])
-        raise DiskConstructionError(f"γ_{cover[i].interval} carries {n_edges[i]} != 3 edges")
+        raise _arc_error(
+            f"the geodesic over arc {cover[i].interval} carries {n_edges[i]} pentagon edges, not 3",
+            int(cover[i].interval),
+        )
     e_all = np.stack([rows, ks], axis=1)
     cover_edges = [e_all[bounds[i] : bounds[i + 1]] for i in range(C)]
 
@@ -567,7 +590,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     if np.any(bad_cross | bad_chain):
         i = int(np.flatnonzero(bad_cross | bad_chain)[0])
         raise DiskConstructionError(
-            f"pentagon boundary edges on cover arcs {i} and {i + 1} do not chain at p_{i}"
+            f"pentagon boundary edges on cover arcs {i} and {i + 1} do not meet"
         )
     crossings_ld = p_end
     crossings = p_end.astype(np.complex128)
