@@ -233,11 +233,12 @@ def ladder_layout(
         jj = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt) + 1
         sig_u = cum[ei] + seglen[ei] * jj / k[ei]
         # where rays from the opposite wall's vertices (along their angle bisectors, and
-        # turned by ±15°, ±30°) first meet this wall
+        # turned by ±20°) first meet this wall
         line = shapely.LineString(np.column_stack([P.real, P.imag]))
         foot = _ray_hits(other_pts, boundary, line, diam)
         sig = np.concatenate([sig_u, foot])
         tol = 1e-6 * float(np.median(w))
+        gap = 0.01 * float(np.median(w))  # no rung end within 1 % of a width of another
         sig = np.sort(sig[(sig > tol) & (sig < cum[-1] - tol)])
         # drop samples on top of a vertex or of each other
         vs_sig = cum[1:-1]
@@ -246,10 +247,10 @@ def ladder_layout(
             j = np.searchsorted(vs_sig, sig)
             lo = np.abs(sig - vs_sig[np.maximum(j - 1, 0)])
             hi = np.abs(vs_sig[np.minimum(j, vs_sig.size - 1)] - sig)
-            near_v = np.minimum(lo, hi) < tol
+            near_v = np.minimum(lo, hi) < gap
         sig = sig[~near_v]
         if sig.size:
-            sig = sig[np.concatenate([[True], np.diff(sig) > tol])]
+            sig = sig[np.concatenate([[True], np.diff(sig) > gap])]
         se = np.clip(np.searchsorted(cum, sig, side="right") - 1, 0, seg.size - 1)
         spos = P[se] + (sig - cum[se]) / seglen[se] * seg[se]
         unit = seg / seglen
@@ -333,7 +334,7 @@ def ladder_layout(
         pos_after = np.searchsorted(vidx, np.arange(m), side="right")
         after2 = vidx[np.minimum(pos_after + 1, vidx.size - 1)]
         second = np.where(pos_after + 1 < vidx.size, after2, m - 1)
-        limit = np.searchsorted(C.sigma, C.sigma + 2.5 * C.width, side="right") - 1
+        limit = np.searchsorted(C.sigma, C.sigma + 1.6 * C.width, side="right") - 1
         nextv = np.where(pos_after < vidx.size, vidx[np.minimum(pos_after, vidx.size - 1)], m - 1)
         hi = np.minimum(second, np.maximum(limit, nextv))
         return hi, nextv
@@ -531,11 +532,11 @@ def ladder_layout(
 
 def _ray_hits(origin_dir, boundary, line, reach: float) -> np.ndarray:
     """Arc-length positions on ``line`` (a wall chain) of the first boundary points hit by rays
-    from the given points along the given directions turned by 0°, ±15°, ±30°."""
+    from the given points along the given directions turned by 0° and ±20°."""
     pts, d = origin_dir
     if pts.size == 0:
         return np.zeros(0)
-    turns = np.exp(1j * np.radians([0.0, 15.0, -15.0, 30.0, -30.0]))
+    turns = np.exp(1j * np.radians([0.0, 20.0, -20.0]))
     o = np.repeat(pts, turns.size)
     u = (d[:, None] * turns[None, :]).ravel()
     eps = 1e-9 * reach
