@@ -250,7 +250,40 @@ def _catalogue() -> dict[str, tuple[str, Callable[[], np.ndarray]]]:
         "island": ("a 'map island' with four bays and a ragged coast", _island),
         "glyph_s": ("outline of the letter S (a thick stroke)", _glyph_s),
         "noisy_circle_1000": ("a noisy circle with 1000 vertices", _noisy_circle_1000),
+        "stroke_spiral": ("a pen stroke along a spiral of 3 turns, round ends", _stroke_spiral),
+        "river": ("a meandering river reach with ragged banks, 380 vertices", _river),
     }
+
+
+def _pen(centre: np.ndarray, width: float) -> np.ndarray:
+    """A pen stroke: the centreline buffered by half the width (round ends and joins)."""
+    import shapely
+
+    g = shapely.LineString(centre).buffer(width / 2, quad_segs=6).simplify(0.01 * width)
+    return np.asarray(shapely.geometry.polygon.orient(g, 1.0).exterior.coords)[:-1]
+
+
+def _stroke_s() -> np.ndarray:
+    """50 clicks along an S (the hand's jitter: 1 % of the height), a pen 1/12 of it wide."""
+    rng = np.random.default_rng(50)
+    t = np.linspace(0.0, 1.0, 50)
+    x = 0.3 * np.sin(2 * np.pi * t) + 0.01 * rng.normal(size=50)
+    y = t + 0.01 * rng.normal(size=50)
+    return _pen(np.column_stack([x, y]), 1.0 / 12.0)
+
+
+def _stroke_spiral() -> np.ndarray:
+    """An Archimedean spiral of 3 turns (radius 1 to 4), a pen 0.5 wide."""
+    a = np.linspace(0.0, 6.0 * np.pi, 240)
+    r = 1.0 + 3.0 * a / (6.0 * np.pi)
+    return _pen(np.column_stack([r * np.cos(a), r * np.sin(a)]), 0.5)
+
+
+def _river() -> np.ndarray:
+    """A river reach of quadmesh.families (seeded): meanders, ragged banks, flat ends."""
+    from .families import river
+
+    return river(np.random.default_rng([0, 4, 5])).vertices
 
 
 def _ccw(v: np.ndarray) -> np.ndarray:
