@@ -67,6 +67,8 @@ class CorridorLayout:
         round_caps: per round cap, its boundary γ from one end of its rung round to the other
             (coarse vertex indices, counter-clockwise about the rung's midpoint): the cap is a
             half-disk vertex sector whose sides are the two halves of the rung.
+        cell_rungs: (C, 2) the rungs (indices into ``rungs``) before and after each cell, −1
+            at a cap.
     """
 
     vertices: np.ndarray
@@ -76,6 +78,7 @@ class CorridorLayout:
     tips: tuple[int, int]
     edge_of: np.ndarray
     round_caps: tuple[tuple[int, ...], ...] = ()
+    cell_rungs: np.ndarray | None = None
 
 
 def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -480,17 +483,19 @@ def ladder_layout(
     first_a, first_b = pa[path[0]], pb[path[0]]
     # start cap: a quadrilateral cell, or a round cap when it is cheaper (or the only way)
     rounds: list[tuple[int, ...]] = []
+    cell_rungs: list[tuple[int, int]] = []
     ring = [s] + [int(v) for v in L.gid[:first_a][L.is_vertex[:first_a]]] + [gl(L, first_a)]
     ring += [gl(R, first_b), *[int(v) for v in R.gid[:first_b][R.is_vertex[:first_b]]][::-1]]
-    if len(ring) == 4 and (0, path[0]) not in round_gamma:
+    if len(ring) == 4 and (
+        (0, path[0]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)
+    ):
         cells.append(ring)
         kind.append("cap")
-    elif len(ring) == 4 and _quad_cap_ok(coarse[ring], margin):
-        cells.append(ring)
-        kind.append("cap")
+        cell_rungs.append((-1, 0))
     else:
         rounds.append(tuple(round_gamma[(0, path[0])]))
-    for r0, r1 in itertools.pairwise(path):
+    for k_, (r0, r1) in enumerate(itertools.pairwise(path)):
+        cell_rungs.append((k_, k_ + 1))
         a, b, a_, b_ = pa[r0], pb[r0], pa[r1], pb[r1]
         if a_ == a:
             cells.append([gl(L, a), gl(R, b_), gl(R, nextvR[b]), gl(R, b)])
@@ -507,6 +512,7 @@ def ladder_layout(
     if len(ring) == 4 and ((1, path[-1]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)):
         cells.append(ring)
         kind.append("cap")
+        cell_rungs.append((len(path) - 1, -1))
     else:
         rounds.append(tuple(round_gamma[(1, path[-1])]))
     cell_arr = np.asarray(cells, dtype=np.int64).reshape(-1, 4)
@@ -527,6 +533,7 @@ def ladder_layout(
         tips=(int(s), int(e)),
         edge_of=np.concatenate([np.full(n, -1), edge_of[samp_used]]),
         round_caps=tuple(tuple(int(remap[i]) for i in g) for g in rounds),
+        cell_rungs=np.asarray(cell_rungs, dtype=np.int64).reshape(-1, 2),
     )
 
 
@@ -631,8 +638,6 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     Raises:
         ThinPartError: no ladder layout exists.
     """
-    from ..cells import refine_layout
-
     z = np.asarray(z, dtype=np.complex128)
     lay = ladder_layout(z)
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
@@ -644,14 +649,18 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         # one point count for every round cap: their points across the rung then agree
         n_pts = _cap_points(max(len(g) - 1 for g in lay.round_caps))
         caps = [_round_cap_sector(lay.vertices, g, n_pts) for g in lay.round_caps]
-    edge_params = {(g[0], g[-1]): cap[2] for g, cap in zip(lay.round_caps, caps)}
-    try:
-        pts, quads, info = refine_layout(
-            lay.vertices, lay.cells, size=size, tips=tips.tolist(), edge_params=edge_params
-        )
-    except ValueError as exc:
-        raise ThinPartError(f"corridor cells: {exc}") from exc
-    cell = np.asarray(info.quad_cell)
+    rung_of = {(int(a), int(b)): k for k, (a, b) in enumerate(lay.rungs)}
+    fixed: dict[int, np.ndarray] = {}
+    cap_rung = []
+    for g, cap in zip(lay.round_caps, caps):
+        u, v = g[0], g[-1]
+        if (u, v) in rung_of:
+            k, par = rung_of[(u, v)], cap[2]
+        else:
+            k, par = rung_of[(v, u)], 1.0 - cap[2][::-1]
+        fixed[k] = par
+        cap_rung.append(k)
+    pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()))
     for k, (g, (cp, cq, _params, gamma_ids)) in enumerate(zip(lay.round_caps, caps)):
         # glue the sector: its g_k that are coarse vertices by index, its points on the rung
         # to the refined rung's points (same parameters, in order), the others new
@@ -660,7 +669,9 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         gid = np.asarray(gamma_ids)
         gl[:n_pts][gid >= 0] = gid[gid >= 0]
         u, v = g[0], g[-1]
-        rung = np.asarray(info.edge_points(u, v))
+        rung = rung_ids[cap_rung[k]]
+        if int(rung[0]) != u:
+            rung = rung[::-1]
         zu, zv = lay.vertices[u], lay.vertices[v]
         t = (cp - zu) / (zv - zu)
         on = np.flatnonzero((np.abs(t.imag) < 1e-9) & (gl < 0))
@@ -677,7 +688,183 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         pts = np.concatenate([pts, cp[own]])
         quads = np.concatenate([quads, gl[cq]])
         cell = np.concatenate([cell, np.full(len(cq), -2 - k)])
+    _check_ladder_angles(pts, quads, z)
     return CorridorMesh(pts, quads, cell, lay)
+
+
+def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) -> list[np.ndarray]:
+    """Parameters (0 … 1 from the L end to the R end) of the points on every rung.
+
+    Consecutive rungs joined by a ladder cell form a *run*; the cells of a run are refined
+    with the same number of points on every rung. A run without fixed rungs gets uniform
+    parameters (segments of about ``size``); a run with one fixed rung (a round end's sector
+    puts its points on it) carries that rung's parameters; a run between two fixed rungs with
+    the same point count morphs linearly from one to the other along its length, so every
+    cell in it is a ruled (not quite bilinear) grid whose angles are checked afterwards."""
+    V = lay.vertices
+    nr = len(lay.rungs)
+    rl = np.abs(V[lay.rungs[:, 1]] - V[lay.rungs[:, 0]])
+    mid = 0.5 * (V[lay.rungs[:, 1]] + V[lay.rungs[:, 0]])
+    link = np.zeros(max(nr - 1, 0), dtype=bool)
+    for c, (k0, _k1) in enumerate(lay.cell_rungs):
+        if lay.kind[c] == "ladder":
+            link[k0] = True
+    params: list[np.ndarray] = [np.zeros(0)] * nr
+    start = 0
+    for k in range(nr):
+        if k < nr - 1 and link[k]:
+            continue
+        run = np.arange(start, k + 1)
+        start = k + 1
+        ends = [r for r in (run[0], run[-1]) if r in fixed]
+        if not ends:
+            cnt = max(1, int(np.ceil(rl[run].max() / size)))
+            for r in run:
+                params[r] = np.linspace(0.0, 1.0, cnt + 1)
+            continue
+        p0 = fixed[ends[0]]
+        p1 = fixed[ends[-1]]
+        if p0.size != p1.size:
+            raise ThinPartError(
+                f"the stretch of the corridor between ({mid[run[0]].real:.6g}, "
+                f"{mid[run[0]].imag:.6g}) and ({mid[run[-1]].real:.6g}, {mid[run[-1]].imag:.6g}) "
+                f"joins two ends with {p0.size} and {p1.size} points across"
+            )
+        if run.size == 1 or ends[0] == ends[-1]:
+            for r in run:
+                params[r] = p0
+            continue
+        arc = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(mid[run])))])
+        w = arc / arc[-1]
+        if ends[0] != run[0]:
+            p0, p1 = p1, p0
+        for r, x in zip(run, w):
+            params[r] = (1.0 - x) * p0 + x * p1
+    return params
+
+
+def _check_ladder_angles(pts: np.ndarray, quads: np.ndarray, z: np.ndarray) -> None:
+    """Raise ThinPartError if a corridor quad is not convex and counter-clockwise with every
+    new angle in [60°, 120°] (morphed runs are ruled, not bilinear, grids: checked here)."""
+    c = pts[quads] - pts[quads][:, :1]
+    e = np.roll(c, -1, axis=1) - c
+    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
+    ang = np.where(ang < 0, ang + 360.0, ang)
+    corner = np.isin(pts[quads], z)
+    bad = ~corner & ((ang < 60.0 - 1e-9) | (ang > 120.0 + 1e-9))
+    if bad.any():
+        q = int(np.flatnonzero(bad.any(axis=1))[0])
+        p = pts[quads[q, 0]]
+        raise ThinPartError(
+            f"the corridor cells near ({p.real:.6g}, {p.imag:.6g}) cannot change their spacing "
+            f"across the corridor fast enough (a quad angle of {ang[bad].min():.1f}°–"
+            f"{ang[bad].max():.1f}°)"
+        )
+
+
+def _bilinear(c: np.ndarray, sp: np.ndarray, tp: np.ndarray) -> np.ndarray:
+    """Points (len(tp), len(sp)) of the bilinear map of corners c (counter-clockwise)."""
+    S, T = sp[None, :], tp[:, None]
+    return (1 - S) * (1 - T) * c[0] + S * (1 - T) * c[1] + S * T * c[2] + (1 - S) * T * c[3]
+
+
+def _refine_ladder(
+    lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray], tips: set[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
+    """Refine a ladder layout: every rung's points generated once (:func:`_run_params`) and
+    shared by index by the cells on both sides; ladder cells are ruled grids between their
+    two rungs (bilinear when the two carry the same parameters), fan and cap cells bilinear
+    grids. Returns points, quads, the cell of every quad and every rung's point indices."""
+    V = lay.vertices
+    params = _run_params(lay, size, fixed)
+    pts: list[np.ndarray] = [V]
+    count = V.size
+
+    def new(z: np.ndarray) -> np.ndarray:
+        nonlocal count
+        z = np.asarray(z, dtype=np.complex128).ravel()
+        ids = np.arange(count, count + z.size)
+        pts.append(z)
+        count += z.size
+        return ids
+
+    rung_ids = []
+    for (a, b), p in zip(lay.rungs, params):
+        inner = new(V[a] + p[1:-1] * (V[b] - V[a]))
+        rung_ids.append(np.concatenate([[a], inner, [b]]))
+    quads, owner = [], []
+
+    def emit(grid: np.ndarray, c: int) -> None:
+        q = np.stack(
+            [grid[:-1, :-1], grid[:-1, 1:], grid[1:, 1:], grid[1:, :-1]], axis=-1
+        ).reshape(-1, 4)
+        quads.append(q)
+        owner.append(np.full(len(q), c))
+
+    def fill(xyz: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """Give new ids to the grid nodes still marked −1."""
+        free = ids < 0
+        ids[free] = new(xyz[free])
+        return ids
+
+    def along(u: int, v: int) -> int:
+        return max(1, int(np.ceil(abs(V[v] - V[u]) / size)))
+
+    for c, (ring, kind, (k0, k1)) in enumerate(zip(lay.cells, lay.kind, lay.cell_rungs)):
+        ring = [int(x) for x in ring]
+        if kind == "ladder":
+            (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+            m = max(along(a, a2), along(b, b2))
+            si = np.linspace(0.0, 1.0, m + 1)[None, :]
+            p0, p1 = params[k0][:, None], params[k1][:, None]
+            xyz = (1 - si) * (V[a] + p0 * (V[b] - V[a])) + si * (V[a2] + p1 * (V[b2] - V[a2]))
+            ids = np.full(xyz.shape, -1, dtype=np.int64)
+            ids[:, 0], ids[:, -1] = rung_ids[k0], rung_ids[k1]
+            emit(fill(xyz, ids), c)
+            continue
+        # fan or cap: bilinear; rotate so that a rung is the side c0 -> c1 (s) and, for a fan,
+        # the other rung the side c0 -> c3 (t)
+        sides = {}
+        for k in (k0, k1):
+            if k < 0:
+                continue
+            a, b = (int(x) for x in lay.rungs[k])
+            for i in range(4):
+                u, v = ring[i], ring[(i + 1) % 4]
+                if (u, v) == (a, b):
+                    sides[i] = (rung_ids[k], params[k])
+                elif (u, v) == (b, a):
+                    sides[i] = (rung_ids[k][::-1], 1.0 - params[k][::-1])
+        if kind == "fan" and len(sides) == 2:
+            i0 = next(i for i in sides if (i + 3) % 4 in sides)  # s side i0, t side i0 - 1
+        else:
+            i0 = next(iter(sides))
+        rot = [ring[(i0 + j) % 4] for j in range(4)]
+        s_ids, sp = sides[i0]
+        if (i0 + 3) % 4 in sides:
+            t_ids, tp = sides[(i0 + 3) % 4]
+            t_ids, tp = t_ids[::-1], 1.0 - tp[::-1]  # that side runs c3 -> c0
+        else:
+            tp = np.linspace(0.0, 1.0, max(along(rot[0], rot[3]), along(rot[1], rot[2])) + 1)
+            t_ids = None
+        if tips.intersection(rot) and (sp.size > 2 or tp.size > 2):
+            raise ThinPartError(
+                "a corner below 60° of the corridor at "
+                f"({V[sorted(tips.intersection(rot))[0]].real:.6g}, "
+                f"{V[sorted(tips.intersection(rot))[0]].imag:.6g}) lies in a cell that must be "
+                "refined"
+            )
+        xyz = _bilinear(V[rot], sp, tp)
+        ids = np.full(xyz.shape, -1, dtype=np.int64)
+        ids[0, :] = s_ids
+        if t_ids is not None:
+            ids[:, 0] = t_ids
+        ids[0, 0], ids[0, -1], ids[-1, -1], ids[-1, 0] = rot
+        emit(fill(xyz, ids), c)
+    allp = np.concatenate(pts)
+    q = np.concatenate(quads) if quads else np.zeros((0, 4), dtype=np.int64)
+    own = np.concatenate(owner) if owner else np.zeros(0, dtype=np.int64)
+    return allp, q, own, rung_ids
 
 
 #: Radius of the Mesh 1 / Mesh 2 core of a round end, relative to the half-width of its rung.
