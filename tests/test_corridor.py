@@ -131,3 +131,28 @@ def test_round_capped_strokes_mesh_as_corridors(name, centre, width):
     lo, hi = independent_check(validate_polygon(poly).vertices, r.mesh.vertices, r.mesh.quads)
     assert 60 - 1e-9 <= lo and hi <= 120 + 1e-9
     assert len(r.mesh.quads) <= 100 * len(poly), len(r.mesh.quads) / len(poly)
+
+
+def _bent_stroke(turn_deg: float, quad_segs: int) -> np.ndarray:
+    a = np.radians(turn_deg)
+    centre = np.array([[0.0, 0.0], [4.0, 0.0], [4.0 + 4.0 * np.cos(a), 4.0 * np.sin(a)]])
+    g = shapely.LineString(centre).buffer(
+        0.5, cap_style="flat", join_style="round", quad_segs=quad_segs
+    )
+    return np.asarray(shapely.geometry.polygon.orient(g, 1.0).exterior.coords)[:-1]
+
+
+@pytest.mark.parametrize("turn", [45.0, 60.0, 90.0])
+@pytest.mark.parametrize("quad_segs", [4, 8])
+def test_bends_are_vertex_sectors(turn, quad_segs):
+    """A bend whose inner corner is too sharp for one crosscut (a 240°–270° reflex vertex facing
+    a round outer corner) is a vertex sector about the inner corner between two crosscuts: its
+    core is Mesh 1 + full Mesh 2 levels, joined to the outer wall by checked connection quads."""
+    from quadmesh.thin.corridor import mesh_corridor
+
+    poly = _bent_stroke(turn, quad_segs)
+    cm = mesh_corridor(poly[:, 0] + 1j * poly[:, 1])
+    assert len(cm.layout.sectors) == 1
+    v = np.column_stack([cm.vertices.real, cm.vertices.imag])
+    lo, hi = independent_check(validate_polygon(poly).vertices, v, cm.quads, tol=1e-7)
+    assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7

@@ -69,6 +69,9 @@ class CorridorLayout:
             half-disk vertex sector whose sides are the two halves of the rung.
         cell_rungs: (C, 2) the rungs (indices into ``rungs``) before and after each cell, −1
             at a cap.
+        sectors: per bend, (apex, γ): two rungs from the apex (a wall vertex) with a stretch
+            of the other wall between them, meshed as a vertex sector about the apex; γ runs
+            from the far end of one rung along the other wall to the far end of the other.
     """
 
     vertices: np.ndarray
@@ -79,6 +82,7 @@ class CorridorLayout:
     edge_of: np.ndarray
     round_caps: tuple[tuple[int, ...], ...] = ()
     cell_rungs: np.ndarray | None = None
+    sectors: tuple[tuple[int, tuple[int, ...]], ...] = ()
 
 
 def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -447,6 +451,49 @@ def ladder_layout(
             else:
                 arcs.append((np.array([r]), np.array([nr + 1]), np.array([c])))
 
+    # bends: two rungs from one wall vertex (the apex, a reflex corner) with any stretch of the
+    # other wall between their far ends; that region is a vertex sector about the apex
+    sector_gamma: dict[tuple[int, int], tuple[int, list[int]]] = {}
+    lo_ang = 60.0 + margin
+    for C, O, pA, pB, on_l in ((L, R, pa, pb, True), (R, L, pb, pa, False)):
+        for ap in np.flatnonzero(C.is_vertex & (C.theta >= 200.0)):
+            rs = np.flatnonzero(pA == ap)
+            if rs.size < 2:
+                continue
+            rs = rs[np.argsort(pB[rs], kind="stable")]
+            zc = C.pos[ap]
+            for i in range(rs.size):
+                for j in range(i + 1, rs.size):
+                    o0, o1 = int(pB[rs[i]]), int(pB[rs[j]])
+                    nb = int(O.vrank[o1 - 1] - O.vrank[o0]) if o1 > o0 else 0
+                    if nb < 1 or o1 - o0 > 400:
+                        continue
+                    mids = [t for t in range(o0 + 1, o1) if O.is_vertex[t]]
+                    if nb == 1 and O.theta[mids[0]] <= 120.0:
+                        continue  # a plain fan cell
+                    if on_l:  # cycle (apex, far end of the later rung, ..., earlier)
+                        ids = [int(O.gid[o1]), *[int(O.gid[t]) for t in mids[::-1]], int(O.gid[o0])]
+                        gz = np.r_[O.pos[o1], O.pos[mids[::-1]], O.pos[o0]]
+                    else:
+                        ids = [int(O.gid[o0]), *[int(O.gid[t]) for t in mids], int(O.gid[o1])]
+                        gz = np.r_[O.pos[o0], O.pos[mids], O.pos[o1]]
+                    th = _ccw_angle(np.array([gz[0] - zc]), np.array([gz[-1] - zc]))[0]
+                    one = lo_ang <= th <= 120.0 - margin  # m = 1, or m = 2 subsectors
+                    if not (one or 120.0 + margin <= th <= 240.0 - margin):
+                        continue
+                    if C.theta[ap] - th < 2 * lo_ang:
+                        continue
+                    try:
+                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1))[4]
+                    except ThinPartError:
+                        continue
+                    if a_.min() < lo_ang or a_.max() > 120.0 - margin:
+                        continue
+                    r0, r1 = int(rs[i]), int(rs[j])
+                    sector_gamma[(r0, r1)] = (int(C.gid[ap]), ids)
+                    cost = 4.0 + np.abs(a_ - 90).max() / 30
+                    arcs.append((np.array([r0]), np.array([r1]), np.array([cost])))
+
     S = np.concatenate([x[0] for x in arcs])
     D = np.concatenate([x[1] for x in arcs])
     W = np.concatenate([x[2] for x in arcs])
@@ -486,17 +533,20 @@ def ladder_layout(
     cell_rungs: list[tuple[int, int]] = []
     ring = [s] + [int(v) for v in L.gid[:first_a][L.is_vertex[:first_a]]] + [gl(L, first_a)]
     ring += [gl(R, first_b), *[int(v) for v in R.gid[:first_b][R.is_vertex[:first_b]]][::-1]]
-    if len(ring) == 4 and (
-        (0, path[0]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)
-    ):
+    if len(ring) == 4 and ((0, path[0]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)):
         cells.append(ring)
         kind.append("cap")
         cell_rungs.append((-1, 0))
     else:
         rounds.append(tuple(round_gamma[(0, path[0])]))
+    sectors: list[tuple[int, tuple[int, ...]]] = []
     for k_, (r0, r1) in enumerate(itertools.pairwise(path)):
-        cell_rungs.append((k_, k_ + 1))
         a, b, a_, b_ = pa[r0], pb[r0], pa[r1], pb[r1]
+        if (r0, r1) in sector_gamma:  # (never also a plain fan: that has one corner between)
+            apex, ids = sector_gamma[(r0, r1)]
+            sectors.append((apex, tuple(ids)))
+            continue
+        cell_rungs.append((k_, k_ + 1))
         if a_ == a:
             cells.append([gl(L, a), gl(R, b_), gl(R, nextvR[b]), gl(R, b)])
             kind.append("fan")
@@ -516,7 +566,9 @@ def ladder_layout(
     else:
         rounds.append(tuple(round_gamma[(1, path[-1])]))
     cell_arr = np.asarray(cells, dtype=np.int64).reshape(-1, 4)
-    round_ids = np.asarray([i for g in rounds for i in g], dtype=np.int64)
+    round_ids = np.asarray(
+        [i for g in rounds for i in g] + [i for a, g in sectors for i in (a, *g)], dtype=np.int64
+    )
     used = np.unique(np.concatenate([cell_arr.ravel(), round_ids]))
     # keep coarse vertices: all polygon vertices, then the used samples renumbered
     samp_used = used[used >= n]
@@ -534,6 +586,7 @@ def ladder_layout(
         edge_of=np.concatenate([np.full(n, -1), edge_of[samp_used]]),
         round_caps=tuple(tuple(int(remap[i]) for i in g) for g in rounds),
         cell_rungs=np.asarray(cell_rungs, dtype=np.int64).reshape(-1, 2),
+        sectors=tuple((int(remap[a]), tuple(int(remap[i]) for i in g)) for a, g in sectors),
     )
 
 
@@ -604,7 +657,7 @@ def _round_cap_cost(pts: np.ndarray) -> float | None:
         return None
     # the connection quads between the sector's core and the cap's points
     try:
-        a_ = _cap_mesh(pts, _cap_points(pts.size - 1))[4]
+        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1))[4]
     except ThinPartError:
         return None
     if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
@@ -643,51 +696,94 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
     tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
-    # round caps first: their sectors fix the points on their rungs
-    caps = []
-    if lay.round_caps:
-        # one point count for every round cap: their points across the rung then agree
-        n_pts = _cap_points(max(len(g) - 1 for g in lay.round_caps))
-        caps = [_round_cap_sector(lay.vertices, g, n_pts) for g in lay.round_caps]
+    # sectors first (round ends, bends): they fix the points on their rungs
     rung_of = {(int(a), int(b)): k for k, (a, b) in enumerate(lay.rungs)}
-    fixed: dict[int, np.ndarray] = {}
-    cap_rung = []
-    for g, cap in zip(lay.round_caps, caps):
-        u, v = g[0], g[-1]
+
+    def rung_index(u: int, v: int) -> tuple[int, bool]:
+        """Index of the rung joining u and v, and whether it runs from u to v."""
         if (u, v) in rung_of:
-            k, par = rung_of[(u, v)], cap[2]
-        else:
-            k, par = rung_of[(v, u)], 1.0 - cap[2][::-1]
-        fixed[k] = par
-        cap_rung.append(k)
+            return rung_of[(u, v)], True
+        return rung_of[(v, u)], False
+
+    V = lay.vertices
+    structs = []  # (apex, gamma ids, [(rung, from apex to gamma end: 0 or -1)])
+    for g in lay.round_caps:
+        structs.append((0.5 * (V[g[0]] + V[g[-1]]), list(g), "cap"))
+    for apex_id, g in lay.sectors:
+        structs.append((V[apex_id], list(g), "bend"))
+    fixed: dict[int, np.ndarray] = {}
+    built = []
+    if structs:
+        n_pts = _sector_points(max(len(g) - 1 for _, g, _ in structs))
+        base = [_sector_mesh(o, V[g], n_pts, 0, g) for o, g, _ in structs]
+        # every fixed rung carries the same number of points: pad with connection rows
+        counts = []
+        for (_o, _g, kind), m in zip(structs, base):
+            n1, n2 = m[5].size, m[6].size
+            if kind == "bend" and n1 != n2:
+                raise ThinPartError("a bend of the corridor has sides of unequal refinement")
+            counts.append(n1 + n2 - 1 if kind == "cap" else n1)
+        target = max(counts)
+        caps_n = [c for c, (_, _, k) in zip(counts, structs) if k == "cap"]
+        if caps_n and (target - caps_n[0]) % 2:
+            target += 1
+        for (o, g, kind), c in zip(structs, counts):
+            rings = (target - c) // 2 if kind == "cap" else target - c
+            m = _sector_mesh(o, V[g], n_pts, rings, g)
+            a_ = m[4]
+            if a_.min() < 60.0 or a_.max() > 120.0:
+                raise ThinPartError(
+                    f"the {'round end' if kind == 'cap' else 'bend'} near ({o.real:.6g}, "
+                    f"{o.imag:.6g}) is not round enough about its centre (connection angles "
+                    f"[{a_.min():.1f}°, {a_.max():.1f}°])"
+                )
+            _gp, _ids, allp, _q, _a, side1, side2 = m
+            if kind == "cap":
+                k, fwd = rung_index(g[0], g[-1])
+                u, v = (g[0], g[-1]) if fwd else (g[-1], g[0])
+                on = np.r_[side1, side2[1:]]
+                par = _param_list(_side_params(allp, on, V[u], V[v]))
+                fixed[k] = par
+                built.append((m, [(k, u, v, on)]))
+            else:
+                apex_id = next(a for a, gg in lay.sectors if list(gg) == g)
+                entries = []
+                for side, end in ((side1, g[0]), (side2, g[-1])):
+                    k, fwd = rung_index(apex_id, end)
+                    u, v = (apex_id, end) if fwd else (end, apex_id)
+                    par = _param_list(_side_params(allp, side, V[u], V[v]))
+                    if k in fixed and fixed[k].size != par.size:
+                        raise ThinPartError("two sectors share a crosscut of the corridor")
+                    fixed[k] = par
+                    entries.append((k, u, v, side))
+                built.append((m, entries))
     pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()))
-    for k, (g, (cp, cq, _params, gamma_ids)) in enumerate(zip(lay.round_caps, caps)):
-        # glue the sector: its g_k that are coarse vertices by index, its points on the rung
-        # to the refined rung's points (same parameters, in order), the others new
-        n_pts = len(gamma_ids)
-        gl = np.full(cp.size, -1, dtype=np.int64)
+    for k_s, (m, entries) in enumerate(built):
+        gp, gamma_ids, allp, sq, _a, _s1, _s2 = m
+        n_pts = gp.size
+        gl = np.full(allp.size, -1, dtype=np.int64)
         gid = np.asarray(gamma_ids)
         gl[:n_pts][gid >= 0] = gid[gid >= 0]
-        u, v = g[0], g[-1]
-        rung = rung_ids[cap_rung[k]]
-        if int(rung[0]) != u:
-            rung = rung[::-1]
-        zu, zv = lay.vertices[u], lay.vertices[v]
-        t = (cp - zu) / (zv - zu)
-        on = np.flatnonzero((np.abs(t.imag) < 1e-9) & (gl < 0))
-        on = on[(t.real[on] > 1e-12) & (t.real[on] < 1 - 1e-12)]
-        on = on[np.argsort(t.real[on])]
-        if on.size != rung.size - 2:
-            raise ThinPartError(
-                f"round end near ({zu.real:.6g}, {zu.imag:.6g}): its sector and the corridor "
-                f"disagree on the points across it ({on.size} against {rung.size - 2})"
-            )
-        gl[on] = rung[1:-1]
+        for k, u, v, side in entries:
+            rung = rung_ids[k]  # from u to v
+            t = _side_params(allp, side, V[u], V[v])
+            inner = side[(t > 1e-12) & (t < 1 - 1e-12) & (gl[side] < 0)]
+            inner = inner[np.argsort(_side_params(allp, inner, V[u], V[v]))]
+            if inner.size != rung.size - 2:
+                raise ThinPartError(
+                    f"a sector of the corridor near ({V[u].real:.6g}, {V[u].imag:.6g}) and its "
+                    f"cells disagree on the points across it ({inner.size} against "
+                    f"{rung.size - 2})"
+                )
+            gl[inner] = rung[1:-1]
+            for end in (u, v):  # the rung's ends that are sector points (its apex)
+                hit = side[np.abs(allp[side] - V[end]) <= 1e-12 * abs(V[v] - V[u])]
+                gl[hit[gl[hit] < 0]] = end
         own = np.flatnonzero(gl < 0)
         gl[own] = pts.size + np.arange(own.size)
-        pts = np.concatenate([pts, cp[own]])
-        quads = np.concatenate([quads, gl[cq]])
-        cell = np.concatenate([cell, np.full(len(cq), -2 - k)])
+        pts = np.concatenate([pts, allp[own]])
+        quads = np.concatenate([quads, gl[sq]])
+        cell = np.concatenate([cell, np.full(len(sq), -2 - k_s)])
     _check_ladder_angles(pts, quads, z)
     return CorridorMesh(pts, quads, cell, lay)
 
@@ -751,7 +847,7 @@ def _check_ladder_angles(pts: np.ndarray, quads: np.ndarray, z: np.ndarray) -> N
     ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
     ang = np.where(ang < 0, ang + 360.0, ang)
     corner = np.isin(pts[quads], z)
-    bad = ~corner & ((ang < 60.0 - 1e-9) | (ang > 120.0 + 1e-9))
+    bad = ~corner & ((ang < 60.0 - 1e-7) | (ang > 120.0 + 1e-7))
     if bad.any():
         q = int(np.flatnonzero(bad.any(axis=1))[0])
         p = pts[quads[q, 0]]
@@ -795,9 +891,9 @@ def _refine_ladder(
     quads, owner = [], []
 
     def emit(grid: np.ndarray, c: int) -> None:
-        q = np.stack(
-            [grid[:-1, :-1], grid[:-1, 1:], grid[1:, 1:], grid[1:, :-1]], axis=-1
-        ).reshape(-1, 4)
+        q = np.stack([grid[:-1, :-1], grid[:-1, 1:], grid[1:, 1:], grid[1:, :-1]], axis=-1).reshape(
+            -1, 4
+        )
         quads.append(q)
         owner.append(np.full(len(q), c))
 
@@ -867,56 +963,66 @@ def _refine_ladder(
     return allp, q, own, rung_ids
 
 
-#: Radius of the Mesh 1 / Mesh 2 core of a round end, relative to the half-width of its rung.
+#: Radius of the Mesh 1 / Mesh 2 core of a sector (round end or bend), relative to its sides.
 CAP_CORE = 0.25
 
 
-@functools.lru_cache(maxsize=8)
-def _cap_template(n_pts: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The core of a half-disk vertex sector (paper §8, parabolic case: Mesh 1 in two 90°
-    subsectors, then full Mesh 2 levels) for a crosscut of ``n_pts`` = 4·2^k + 1 points: apex
-    0, sides along the real axis, outer arc of radius :data:`CAP_CORE`. Returns its vertices,
-    its quads and the indices of its outer arc points s_0 … s_{P−1} (polar angles increasing
-    from 0 to π). Only full levels, so the core depends on ``n_pts`` alone."""
+@functools.lru_cache(maxsize=64)
+def _sector_core(theta_deg: float, n_pts: int):
+    """The core of a vertex sector (paper §8, parabolic case: Mesh 1 in m = 1 or 2 subsectors,
+    then full Mesh 2 levels) of angle ``theta_deg`` for a crosscut of ``n_pts`` = 2^k + 1
+    points: apex 0, side 1 along the positive real axis, outer arc of radius :data:`CAP_CORE`.
+    Returns its vertices, quads, outer arc points s_0 … s_{P−1} (by polar angle) and the points
+    on side 1 and on side 2 (from the apex outwards). Only full levels: it depends on
+    (θ, ``n_pts``) alone."""
     from .mesh import KIND_CONNECTION
     from .parabolic import mesh_vertex_sector
 
-    g = np.exp(1j * np.pi * np.arange(n_pts) / (n_pts - 1))
-    sec = mesh_vertex_sector(0j, 1 + 0j, np.pi, g, lam=CAP_CORE)
+    th = np.radians(theta_deg)
+    g = np.exp(1j * th * np.arange(n_pts) / (n_pts - 1))
+    sec = mesh_vertex_sector(0j, 1 + 0j, th, g, lam=CAP_CORE)
     inner = np.asarray(sec.kind) != KIND_CONNECTION
     q = np.asarray(sec.quads)[inner]
     used = np.unique(q)
     v = np.asarray(sec.vertices)[used]
     q = np.searchsorted(used, q)
     r = np.abs(v)
+    ang = np.angle(v)
+    ang[ang < -1e-9] += 2 * np.pi
     outer = np.flatnonzero(np.abs(r - r.max()) < 1e-9 * r.max())
-    # the point at angle π sorts last only if its angle reads π, not -π
-    ang = np.angle(v[outer])
-    ang[ang < -1e-12] += 2 * np.pi
-    outer = outer[np.argsort(ang)]
+    outer = outer[np.argsort(ang[outer])]
     if outer.size != n_pts:
-        raise ThinPartError(f"round-end template: {outer.size} outer points for {n_pts}")
-    return v, q, outer
+        raise ThinPartError(f"sector core: {outer.size} outer points for {n_pts}")
+    tol = 1e-9
+    s1 = np.flatnonzero((np.abs(v.imag) < tol) & (v.real > -tol))
+    s2 = np.flatnonzero(np.abs((v * np.exp(-1j * th)).imag) < tol)
+    s2 = s2[(v[s2] * np.exp(-1j * th)).real > -tol]
+    return v, q, outer, s1[np.argsort(r[s1])], s2[np.argsort(r[s2])]
 
 
-def _cap_points(n_chords: int) -> int:
-    """Point count 4·2^k + 1 (at least 17) of a round end's crosscut with ``n_chords`` chords."""
-    return 4 * 2 ** int(np.ceil(np.log2(max(n_chords, 16) / 4))) + 1
+def _sector_points(n_chords: int) -> int:
+    """Crosscut point count 2^k + 1 (at least 17) of a sector whose boundary has ``n_chords``."""
+    return 2 ** int(np.ceil(np.log2(max(n_chords, 16)))) + 1
 
 
-def _cap_mesh(g: np.ndarray, n_pts: int, gamma: list[int] | None = None):
-    """Half-disk sector of a round end with boundary points ``g`` (from one end of its rung
-    round to the other): ``g``'s chords split (widest angle about the rung's midpoint O first)
-    to ``n_pts`` points, the template core scaled to the rung, one ring of connection quads.
-    Returns (points on the crosscut, their coarse ids, all points, quads, connection angles)."""
-    o = 0.5 * (g[0] + g[-1])
-    unit = (g[0] - o) / abs(g[0] - o)
-    half = abs(g[0] - o)
-    ang = np.unwrap(np.angle((g - o) / unit))
+def _sector_mesh(
+    apex: complex, g: np.ndarray, n_pts: int, rings: int = 0, gamma: list[int] | None = None
+):
+    """A vertex sector about ``apex`` bounded by the crosscut ``g`` (from the end of side 1
+    round to the end of side 2, counter-clockwise): ``g``'s chords split (widest polar angle
+    first; new points lie on the polygon's edges or on rungs) to ``n_pts`` points, the core
+    of :func:`_sector_core` scaled to the shorter side, then ``rings`` + 1 rows of connection
+    quads to the crosscut (rows at equal fractions of every segment s_k g_k: each row is a
+    bilinear subdivision of the previous quads). Returns (crosscut points, their coarse ids,
+    all points, quads, connection angles, side-1 point indices, side-2 point indices), the
+    sides from the apex outwards."""
+    u1 = (g[0] - apex) / abs(g[0] - apex)
+    ang = np.unwrap(np.angle((g - apex) / u1))
+    theta = float(np.degrees(ang[-1]))
     span = np.diff(ang)
     k = np.ones(span.size, dtype=np.int64)
-    if k.sum() > n_pts - 1:
-        raise ThinPartError("a round end of the corridor has more points than its sector takes")
+    if k.sum() > n_pts - 1 or np.any(span <= 0):
+        raise ThinPartError("a sector of the corridor has more points than it takes")
     while k.sum() < n_pts - 1:
         k[np.argmax(span / k)] += 1
     j = np.repeat(np.arange(g.size - 1), k)
@@ -925,46 +1031,54 @@ def _cap_mesh(g: np.ndarray, n_pts: int, gamma: list[int] | None = None):
     ids = None
     if gamma is not None:
         ids = [*np.where(i == 0, np.asarray(gamma)[j], -1).tolist(), int(gamma[-1])]
-    tv, tq, outer = _cap_template(n_pts)
-    allp = np.concatenate([gp, o + half * unit * tv])
+    tv, tq, outer, s1, s2 = _sector_core(round(theta, 9), n_pts)
+    rho = min(abs(g[0] - apex), abs(g[-1] - apex))
+    core = apex + rho * u1 * tv
+    nc = core.size
+    rows = [outer]  # rows of points from the core's outer arc to the crosscut
+    extra = []
+    for r in range(1, rings + 1):
+        extra.append(core[outer] + r / (rings + 1) * (gp - core[outer]))
+        rows.append(nc + (r - 1) * n_pts + np.arange(n_pts))
+    gidx = nc + rings * n_pts + np.arange(n_pts)
+    rows.append(gidx)
+    allp = np.concatenate([core, *extra, gp])
     kk = np.arange(n_pts - 1)
-    s_ = n_pts + outer
-    conn = np.column_stack([s_[kk], kk, kk + 1, s_[kk + 1]])
-    quads = np.concatenate([tq + n_pts, conn])
+    conn = np.concatenate(
+        [
+            np.column_stack([lo[kk], hi[kk], hi[kk + 1], lo[kk + 1]])
+            for lo, hi in itertools.pairwise(rows)
+        ]
+    )
+    quads = np.concatenate([tq, conn])
     c = allp[conn] - allp[conn][:, :1]
     e = np.roll(c, -1, axis=1) - c
     a_ = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
     a_ = np.where(a_ < 0, a_ + 360.0, a_)
-    return gp, ids, allp, quads, a_
+    side1 = np.concatenate([s1, [row[0] for row in rows[1:]]])
+    side2 = np.concatenate([s2, [row[-1] for row in rows[1:]]])
+    # put the crosscut points first (callers glue them by coarse id)
+    order = np.r_[gidx, np.setdiff1d(np.arange(allp.size), gidx)]
+    inv = np.empty_like(order)
+    inv[order] = np.arange(order.size)
+    return gp, ids, allp[order], inv[quads], a_, inv[side1], inv[side2]
 
 
-def _round_cap_sector(vertices: np.ndarray, gamma: tuple[int, ...], n_pts: int):
-    """The half-disk vertex sector of a round cap: the apex is the midpoint O of the cap's
-    rung and the two halves of the rung are its sides (paper §8, parabolic case).
+def _param_list(t: np.ndarray) -> np.ndarray:
+    """Sorted parameters in [0, 1] with 0 and 1 exactly, values within 1e-12 merged."""
+    t = np.sort(np.clip(np.r_[0.0, 1.0, t], 0.0, 1.0))
+    t = t[np.r_[True, np.diff(t) > 1e-12]]
+    t[0] = 0.0
+    if t[-1] < 1.0 - 1e-12:
+        t = np.r_[t, 1.0]
+    t[-1] = 1.0
+    return t
 
-    ``gamma`` runs from one end of the rung round the cap to the other. Its chords are split
-    (new mesh vertices on the polygon's edges), widest angle about O first, until it has
-    ``n_pts`` points g_k. The sector is the core of :func:`_cap_template` scaled to the rung,
-    joined to the g_k by one ring of connection quads (s_k, g_k, g_{k+1}, s_{k+1}) whose angles
-    are checked. Every round cap with the same ``n_pts`` therefore puts its points at the same
-    parameters across its rung, so one chord of cells can join two round ends.
 
-    Returns ``(points, quads, params, gamma_ids)``: the sector's points (the g_k first), quads,
-    the parameters of its points on the rung (from gamma[0] to gamma[-1], 0 and 1 included) and
-    the coarse vertex index of each g_k (−1 for the points that split chords).
-    """
-    g = vertices[list(gamma)]
-    _, ids, allp, quads, a_ = _cap_mesh(g, n_pts, list(gamma))
-    o = 0.5 * (g[0] + g[-1])
-    if a_.min() < 60.0 or a_.max() > 120.0:
-        raise ThinPartError(
-            f"the round end near ({o.real:.6g}, {o.imag:.6g}) is not round enough about the "
-            f"middle of its crosscut (connection angles [{a_.min():.1f}°, {a_.max():.1f}°])"
-        )
-    tv = _cap_template(n_pts)[0]
-    on = np.abs(tv.imag) < 1e-12 * np.abs(tv).max()
-    params = np.unique(np.r_[0.0, 1.0, 0.5 * (1.0 - tv.real[on] / 1.0)])
-    return allp, quads, params, ids
+def _side_params(pts: np.ndarray, side: np.ndarray, u: complex, v: complex) -> np.ndarray:
+    """Parameters along the segment u -> v of the sector points ``side`` lying on it."""
+    t = ((pts[side] - u) / (v - u)).real
+    return t
 
 
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
