@@ -14,6 +14,7 @@ import numpy as np
 from .arcs import best_rotation, piece_intervals
 from .errors import ConformalMapError, DiskConstructionError
 from .geometry import quad_angles_deg
+from .progress import span
 from .pushforward import RotatedMap, push_forward
 from .result import MeshOptions
 
@@ -58,7 +59,8 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> Pie
 
     t0 = time.perf_counter()
     try:
-        fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
+        with span(0.0, 0.6):
+            fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
     except ConformalMapError as exc:
         raise ConformalMapError(f"thick piece {piece.index}: {exc.args[0]}") from exc
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
@@ -71,7 +73,8 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float]) -> Pie
     theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
     stretches = [(int(c.start), int(c.stop)) for c in piece.crosscuts]
     try:
-        psi, intervals, owners = best_rotation(theta, stretches, options)
+        with span(0.6, 1.0, "choosing arcs"):
+            psi, intervals, owners = best_rotation(theta, stretches, options)
     except DiskConstructionError as exc:
         raise DiskConstructionError(f"thick piece {piece.index}: {exc.args[0]}") from exc
     if psi != 0.0:
@@ -115,7 +118,8 @@ def disk_and_image(
         )
 
     try:
-        disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
+        with span(0.0, 0.2):
+            disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
     except DiskConstructionError as exc:
         # Lemma 2.2's chains of neighbouring arcs can interlock when A is small (a
         # scale-free ~3/40 of random arc sets at A = 4): this piece falls back to the
@@ -125,8 +129,9 @@ def disk_and_image(
             raise DiskConstructionError(f"thick piece {pd.index}: {exc.args[0]}") from exc
         fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
         try:
-            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback)
-            disk = build(intervals, FALLBACK_A)
+            with span(0.0, 0.2):
+                intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback)
+                disk = build(intervals, FALLBACK_A)
         except DiskConstructionError as exc2:
             raise DiskConstructionError(
                 f"thick piece {pd.index}: {exc.args[0]} (and with A = {FALLBACK_A:g}: "
@@ -141,7 +146,8 @@ def disk_and_image(
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        image = push_forward(pd.fmap, disk, pd.theta, pd.z)
+        with span(0.2, 0.95, "push-forward"):
+            image = push_forward(pd.fmap, disk, pd.theta, pd.z)
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(
             f"thick piece {pd.index}: evaluating the map at the disk mesh failed ({exc})"
@@ -151,7 +157,8 @@ def disk_and_image(
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
     pd.repair = None
     if options.repair:
-        image = _repair_image(pd, disk, image, timings)
+        with span(0.95, 1.0, "angle repair"):
+            image = _repair_image(pd, disk, image, timings)
     return disk, image
 
 
