@@ -156,17 +156,21 @@ def running(
 
 class Steps:
     """A sequence of steps whose count is not known in advance (Newton iterations, function
-    evaluations): step k (0, 1, …) covers ``[1 − q^k, 1 − q^(k+1)]`` of the enclosing range, so
-    every step moves the bar and the sequence never claims to be done before it is."""
+    evaluations): step k (0, 1, …) covers ``[1 − q^k, 1 − q^(k+1)]`` of ``[start, 1]`` of the
+    enclosing range, so every step moves the bar and the sequence never claims to be done
+    before it is."""
 
-    __slots__ = ("k", "q")
+    __slots__ = ("k", "q", "start")
 
-    def __init__(self, q: float = 0.8) -> None:
+    def __init__(self, q: float = 0.8, start: float = 0.0) -> None:
         self.k = 0
         self.q = float(q)
+        self.start = float(start)
 
     def next(self) -> AbstractContextManager[None]:
         """The :func:`span` of the next step."""
         a = 1.0 - self.q**self.k
         self.k += 1
-        return span(a, 1.0 - self.q**self.k)
+        b = 1.0 - self.q**self.k
+        w = 1.0 - self.start
+        return span(self.start + w * a, self.start + w * b)

@@ -601,7 +601,7 @@ class DiskMap:
         shift = (int(np.argmax(np.abs(np.roll(w, -1) - w))) + 1) % n
         wr = np.roll(w, -shift)
         prob = _Problem(wr, center, nodes, local, ref=n - 1)
-        prob.steps = Steps()
+        prob.steps = Steps(start=0.1)
         p0, u, elong = _principal_frame(w)
         star = _star_shaped(wr, center)
         forced = continuation is True
@@ -617,7 +617,8 @@ class DiskMap:
         est = None
         if not ok:
             # harmonic-measure guess (§1.5): the gap of side k is 2π ω(c, side_k)
-            est = _harmonic_gaps(wr, center)
+            with span(0.0, 0.1):
+                est = _harmonic_gaps(wr, center)
         if est is not None:
             est_gap = float(np.min(est))
             if 0.0 < min_gap < 1.0 and est_gap < min_gap * CROWDING_REJECT:
@@ -815,6 +816,7 @@ class DiskMap:
         orders = self._order(ratio)
         zk = self.prevertices
         for o in np.unique(orders):
+            checkpoint()
             sel = np.flatnonzero(orders == o)
             g = self._vertex_coefficients(ks[sel], int(o))
             remap = np.full(ks.size, -1)
@@ -872,7 +874,9 @@ class DiskMap:
         else:
             _, d0 = self._nearest(centers, ld=off is not None)
             R = np.abs(d0)
+            checkpoint()
             t_all = self._offsets(flat, off, centers[cid], np.arange(flat.size))
+            checkpoint()
             rho = np.zeros(centers.size)
             np.maximum.at(rho, cid, np.abs(t_all))
             good = (rho <= 0.5 * R) & (np.abs(centers) <= 1.0)
@@ -887,17 +891,22 @@ class DiskMap:
             gid = remap[cid[good_pt]]
             tg = t_all[good_pt]
         rest = np.flatnonzero(~good_pt)
+        checkpoint()
         k, d = self._nearest(flat[rest], off, rest)
         vert = np.abs(d) <= 0.5 * self._cfg.nn[k]
         iv = rest[vert]
+        checkpoint()
         if iv.size:
             ff, dd = self._eval_vertex(k[vert], d[vert], derivative)
             f[iv] = ff
             if derivative:
                 fp[iv] = dd
         ic = rest[~vert]
+        checkpoint()
         ccid, ccen, crho = _dyadic_cells(flat[ic], np.abs(d[~vert]), self)
+        checkpoint()
         tc = self._offsets(flat, off, ccen[ccid], ic)
+        checkpoint()
         pts = np.r_[np.flatnonzero(good_pt), ic]
         allcid = np.r_[gid, ccid + gcen.size]
         ff, dd = self._eval_clusters(
@@ -921,6 +930,7 @@ class DiskMap:
         if K == 0:
             return out_f, out_d
         kk, s = self._nearest(cen, ld=ld)
+        checkpoint()
         R = np.abs(s)
         crowd = (R < CROWD_RADIUS) & (R > 0.0)
         for sel, local in ((np.flatnonzero(~crowd), False), (np.flatnonzero(crowd), True)):
@@ -1410,6 +1420,7 @@ def _dyadic_cells(z: np.ndarray, r: np.ndarray, fmap: DiskMap):
         return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.complex128), np.empty(0)
     lev = np.floor(np.log2(np.maximum(r, 1e-300) / 4.0)).astype(np.int64)
     for _ in range(6):
+        checkpoint()
         h = np.ldexp(1.0, lev)
         keys = np.stack([lev, np.floor(z.real / h), np.floor(z.imag / h)], axis=1)
         ukeys, cid = _unique_rows(keys.astype(np.int64))

@@ -486,9 +486,11 @@ def disk_mesh(
 
     # ------------------------------------------------------------------ γ_j vertex lists
     gamma: list[NDArray[np.int64]] = [np.zeros(0, np.int64)] * R.m
+    checkpoint(0.92)
     for i, c in enumerate(R.cover):
         if c.kind != KIND_J:
             continue
+        checkpoint(0.92)
         e = R.cover_edges[i]
         ids = pent_gid[e[:, 0][:, None], side_idx[e[:, 1]]]
         ids = np.where(R.tiles.sigma[e[:, 0]][:, None], ids[:, ::-1], ids)  # start -> end side
