@@ -39,7 +39,7 @@ class Run:
     """The callbacks of one :func:`mesh_polygon` call, the current stage name and the range
     ``[lo, hi]`` of overall fractions that the code running now maps its own fraction into."""
 
-    __slots__ = ("cancel", "due", "hi", "interval", "last", "lo", "progress", "stage")
+    __slots__ = ("cancel", "due", "hi", "interval", "last", "lo", "pending", "progress", "stage")
 
     def __init__(
         self,
@@ -52,6 +52,7 @@ class Run:
         self.stage = ""
         self.lo = self.hi = 0.0
         self.last = 0.0  # last fraction reported (reports never go back)
+        self.pending = 0.0  # latest fraction given to checkpoint(), reported when due
         self.due = 0.0  # monotonic time of the next poll
         self.interval = INTERVAL if interval is None else float(interval)
 
@@ -76,6 +77,7 @@ class Run:
         self.hi = self.lo if end is None else float(end)
         self.poll()
         self.emit(self.lo)
+        self.pending = self.last
         self.due = time.monotonic() + self.interval
 
 
@@ -91,6 +93,8 @@ def checkpoint(fraction: float | None = None) -> None:
     """A cancellation point inside a long loop; ``fraction`` (0..1) is how far the loop is
     within the innermost :func:`span` or stage. Costs one context-variable read and one clock
     read unless :data:`INTERVAL` has passed since the last poll; does nothing outside a run.
+    The latest fraction is remembered, and reported by the first checkpoint (with or without
+    a fraction) that polls after it if it moved the bar.
 
     Raises:
         Cancelled: the run's ``cancel()`` returned True.
@@ -98,14 +102,16 @@ def checkpoint(fraction: float | None = None) -> None:
     run = _RUN.get()
     if run is None:
         return
+    if fraction is not None:
+        f = 0.0 if fraction < 0.0 else 1.0 if fraction > 1.0 else fraction
+        run.pending = run.lo + (run.hi - run.lo) * f
     now = time.monotonic()
     if now < run.due:
         return
     run.due = now + run.interval
     run.poll()
-    if fraction is not None:
-        f = 0.0 if fraction < 0.0 else 1.0 if fraction > 1.0 else fraction
-        run.emit(run.lo + (run.hi - run.lo) * f)
+    if run.pending > run.last:
+        run.emit(run.pending)
 
 
 @contextmanager
@@ -122,7 +128,8 @@ def span(start: float, end: float, stage: str | None = None) -> Iterator[None]:
     run.lo, run.hi = run.lo + width * start, run.lo + width * end
     if stage is not None and stage != run.stage:
         run.stage = stage
-        run.due = 0.0  # show the new name at the next checkpoint
+        run.emit(run.lo)  # show the new name at once
+        run.pending = run.last
     try:
         yield
         checkpoint(1.0)
