@@ -114,10 +114,10 @@ def test_cancel_stops_a_300_vertex_star_within_latency() -> None:
 
 @pytest.mark.slow
 def test_cancel_latency_noisy_circle_1000() -> None:
-    """noisy_circle_1000 cancelled at 1, 3 and 6 s (map solve, arcs/map checks, push-forward
+    """noisy_circle_1000 cancelled at 1, 6 and 12 s (map solve, choosing arcs, push-forward
     on an unloaded machine) stops within MAX_LATENCY each time (it took 10–32 s)."""
     poly = load_example("noisy_circle_1000")
-    got = [_cancel_after(poly, d) for d in (1.0, 3.0, 6.0)]
+    got = [_cancel_after(poly, d) for d in (1.0, 6.0, 12.0)]
     for (lat, stage, frac), d in zip(got, (1.0, 3.0, 6.0)):
         assert lat < MAX_LATENCY, f"cancel at {d} s during {stage} ({frac:.2f}) took {lat:.2f} s"
 
