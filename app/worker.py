@@ -37,7 +37,11 @@ class MeshWorker(QObject):
         self._cancel = threading.Event()
 
     def request_cancel(self) -> None:
-        """Ask the job to stop at its next cancellation point (thread safe)."""
+        """Ask the job to stop at its next cancellation point (thread safe).
+
+        :func:`~quadmesh.pipeline.mesh_polygon` polls the flag between stages and, through
+        :mod:`quadmesh.progress` (a per-thread run opened in this worker's thread), at most
+        0.05 s apart inside its long loops, so a run stops well within a second."""
         self._cancel.set()
 
     def _report(self, stage: str, fraction: float) -> None:

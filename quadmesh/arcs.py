@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numpy as np
 
 from .errors import DiskConstructionError
+from .progress import span
 from .result import MeshOptions
 
 __all__ = ["best_rotation", "piece_intervals", "vertex_intervals"]
@@ -53,18 +54,22 @@ def _choose_arcs(
     sq = np.sqrt(options.lemma_A)
     target = np.maximum(gap / options.crosscut_ratio, 1.2 * sq * half)
     # a cheap first pass (3 sizes, centred), then the full candidate set where it is poor
-    quick = _candidate_arcs(centre, half, gap, target, options, np.array([0.25, 0.5, 1.0]), [0.0])
+    with span(0.0, 0.25):
+        quick = _candidate_arcs(
+            centre, half, gap, target, options, np.array([0.25, 0.5, 1.0]), [0.0]
+        )
     redo = np.flatnonzero(quick[2] > 0.35)
     if redo.size:
-        full = _candidate_arcs(
-            centre[redo],
-            half[redo],
-            gap[redo],
-            target[redo],
-            options,
-            np.geomspace(1.0 / 16.0, 4.0, 13),
-            [-0.4, 0.0, 0.4],
-        )
+        with span(0.25, 1.0):
+            full = _candidate_arcs(
+                centre[redo],
+                half[redo],
+                gap[redo],
+                target[redo],
+                options,
+                np.geomspace(1.0 / 16.0, 4.0, 13),
+                [-0.4, 0.0, 0.4],
+            )
         better = full[2] < quick[2][redo]
         for q, f in zip(quick, full):
             q[redo[better]] = f[better]
@@ -224,8 +229,9 @@ def best_rotation(
     from .disk import build_region
 
     two_pi = 2 * np.pi
-    first = piece_intervals(theta, stretches, options, name)
     count = max(1, int(options.rotations))
+    with span(0.0, 1.0 / count):
+        first = piece_intervals(theta, stretches, options, name)
     if count == 1 or first[0].shape[0] > ROTATION_MAX_ARCS:
         return 0.0, *first
     prv, _ = _arc_gaps(np.sort(theta))
@@ -235,12 +241,13 @@ def best_rotation(
     for k in range(count):
         psi = two_pi / 5 * k / count
         try:
-            got = (
-                first
-                if k == 0
-                else piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
-            )
-            cover = len(build_region(got[0], A=options.lemma_A).cover)
+            with span(k / count, (k + 1) / count):
+                got = (
+                    first
+                    if k == 0
+                    else piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
+                )
+                cover = len(build_region(got[0], A=options.lemma_A).cover)
         except DiskConstructionError:
             continue
         th = np.mod(theta + psi, two_pi)

@@ -93,6 +93,7 @@ import shapely
 
 from .errors import DecompositionError
 from .polygon import Polygon, signed_area, validate_polygon
+from .progress import checkpoint
 
 __all__ = [
     "Channel",
@@ -913,9 +914,11 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
     tree = shapely.STRtree(segs)
 
     d = _vertex_distances(z, segs, tree)
+    checkpoint(0.2)
     r = opt.kappa * d
 
     cands, n_pairs = _find_channels(z, segs, tree, r, opt, opt.delta, opt.min_overlap, opt.min_core)
+    checkpoint(0.5)
 
     # resolve overlapping candidates greedily by extremal distance
     m = int(opt.crosscut_vertices)
@@ -946,6 +949,7 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
             "them, or moving vertices away from its walls, avoids the cut"
         ) from exc
     channels, raw, centres = built
+    checkpoint(0.7)
     gaps = [float("nan")] * len(raw)
     if opt.crowding_gap > 0:
         channels, raw, centres, gaps = _refine(z, segs, tree, r, opt, chosen, built, m)

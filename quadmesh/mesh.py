@@ -36,6 +36,7 @@ import numpy as np
 from .errors import MeshVerificationError
 from .geometry import angle_rounding_slack_deg, quad_signed_areas
 from .polygon import Polygon, validate_polygon
+from .progress import checkpoint
 
 __all__ = [
     "ANGLE_TOL_DEG",
@@ -517,8 +518,10 @@ class QuadMesh:
             return self._report(problems, warnings, poly, None, 0, 0, 1.0, angle_tol)
 
         q = self.quads
+        checkpoint(0.05)
         ang = self.angles()
         areas = self.areas()
+        checkpoint(0.2)
 
         # --- repeated indices inside a quad, unused and coincident vertices
         rep = np.flatnonzero(
@@ -540,6 +543,7 @@ class QuadMesh:
             unused = np.flatnonzero(~used)
             warnings.append(f"{unused.size} vertices belong to no quad, e.g. vertex {unused[0]}")
         problems += self._coincident(coincident_rtol * diam, origin)
+        checkpoint(0.4)
         # --- orientation, convexity, degeneracy
         min_edge = np.abs(self._edge_vectors()).min(axis=1)
         degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
@@ -568,7 +572,9 @@ class QuadMesh:
             )
 
         # --- conformity: every directed edge once, every undirected edge in at most two quads
+        checkpoint(0.5)
         ed = self._edge_analysis()
+        checkpoint(0.7)
         nv = self.n_vertices
         ba, bb, counts, ukeys = ed["ba"], ed["bb"], ed["counts"], ed["ukeys"]
         many = np.flatnonzero(counts > 2)
@@ -622,6 +628,7 @@ class QuadMesh:
             )
 
         # --- polygon corners and boundary edges
+        checkpoint(0.8)
         corner_v, _ = self._match_corners(poly, ba, bb)
         missing = np.flatnonzero(corner_v < 0)
         if missing.size:
@@ -629,6 +636,7 @@ class QuadMesh:
                 f"corner: {missing.size} polygon corners are not mesh boundary vertices, e.g. "
                 f"corner {missing[0]} at {_fmt_pt(poly.z[missing[0]], origin)}"
             )
+        checkpoint(0.85)
         problems += self._check_boundary(poly, corner_v, ba, bb, tol, origin)
 
         # --- area
@@ -641,6 +649,7 @@ class QuadMesh:
             )
 
         # --- angles
+        checkpoint(0.9)
         exempt = self._exempt_mask(ang, corner_v)
         bad = ((ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)) & ~exempt
         if bad.any():

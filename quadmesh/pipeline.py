@@ -25,9 +25,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import Cancelled, ConformalMapError, DiskConstructionError, ThinPartError
+from .errors import ConformalMapError, DiskConstructionError, ThinPartError
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
+from .progress import Run, running
 from .result import MeshOptions, MeshResult, ThinPartResult
 from .thick import (
     PieceWork,
@@ -88,11 +89,6 @@ def _working_origin(poly: Polygon) -> complex:
     return complex(c[0], c[1])
 
 
-def _check_cancel(cancel: CancelCallback | None, stage: str) -> None:
-    if cancel is not None and cancel():
-        raise Cancelled(f"cancelled before {stage}")
-
-
 def mesh_polygon(
     polygon: object,
     options: MeshOptions | None = None,
@@ -104,8 +100,10 @@ def mesh_polygon(
     Args:
         polygon: an (n, 2) float array, a complex array or a :class:`~quadmesh.Polygon`.
         options: the knobs (:class:`MeshOptions`); defaults from the design notes.
-        progress: optional callback ``progress(stage, fraction)``.
-        cancel: optional callable polled between stages; returning True raises
+        progress: optional callback ``progress(stage, fraction)``, called at every stage and
+            at most every 0.05 s inside the long loops (fractions never decrease).
+        cancel: optional callable polled between stages and at most every 0.05 s inside the
+            long loops (:mod:`quadmesh.progress`); returning True raises
             :class:`~quadmesh.errors.Cancelled`.
 
     Returns:
@@ -115,7 +113,14 @@ def mesh_polygon(
         PolygonError: invalid input. ConformalMapError, DiskConstructionError,
         ThinPartError, DecompositionError: a stage could not handle the input.
         MeshVerificationError: the assembled mesh failed verification (never returned).
+        Cancelled: ``cancel()`` returned True.
     """
+    with running(progress, cancel) as run:
+        return _run_stages(polygon, options, run)
+
+
+def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -> MeshResult:
+    """The stages of :func:`mesh_polygon`, reporting to ``run`` (None: no callbacks)."""
     from .decompose import DecomposeOptions, decompose
     from .mesh import finalize_mesh
     from .refine import refine_quads
@@ -123,10 +128,10 @@ def mesh_polygon(
     options = options or MeshOptions()
     timings: dict[str, float] = {}
 
-    def report(stage: str, fraction: float) -> None:
-        _check_cancel(cancel, stage)
-        if progress is not None:
-            progress(stage, fraction)
+    def report(stage: str, fraction: float, end: float | None = None) -> None:
+        # a stage starts at ``fraction``; its inner checkpoints move the bar up to ``end``
+        if run is not None:
+            run.enter(stage, fraction, end)
 
     report("validate", 0.0)
     t0 = time.perf_counter()
@@ -135,14 +140,14 @@ def mesh_polygon(
     work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
-    report("decompose", 0.05)
+    report("decompose", 0.05, 0.08)
     t0 = time.perf_counter()
     dec = decompose(work_poly, DecomposeOptions(delta=options.channel_delta))
     timings["decompose"] = time.perf_counter() - t0
 
     # A polygon that stays one crowded thick piece (a pen stroke, a letter, a river) is a
     # corridor: meshed by a ladder of straight cells, without a conformal map.
-    report("corridor", 0.08)
+    report("corridor", 0.08, 0.1)
     t0 = time.perf_counter()
     corridor, corridor_why = whole_corridor(dec)
     timings["corridor"] = time.perf_counter() - t0
@@ -164,7 +169,7 @@ def mesh_polygon(
                 ) from exc
             raise
 
-    report("verify", 0.9)
+    report("verify", 0.9, 1.0)
     t0 = time.perf_counter()
     z = asm.vertices()  # relative to the working origin
     quads, source = asm.all_quads()
@@ -213,7 +218,8 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
     Returns the assembler, the thick-piece results and the thin-part results."""
     work: list[PieceWork] = []
     for i, piece in enumerate(dec.thick):
-        report("conformal map", 0.1 + 0.3 * i / len(dec.thick))
+        m = len(dec.thick)
+        report("conformal map", 0.1 + 0.3 * i / m, 0.1 + 0.3 * (i + 1) / m)
         work.append(prepare_piece(piece, options, timings, dec))
 
     # One (n, depth step) for all pieces: both sides of a channel must carry the same
@@ -226,7 +232,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
             disks = []
             bad_kind: dict[str, tuple[float, float, int]] = {}
             for i, pd in enumerate(work):
-                report("disk mesh", 0.4 + 0.3 * i / len(work))
+                report("disk mesh", 0.4 + 0.3 * i / len(work), 0.4 + 0.3 * (i + 1) / len(work))
                 disk, image = disk_and_image(pd, n, step, dmax, options, timings)
                 disks.append((disk, image))
                 collect_angle_faults(pd, disk, image, bad_kind)

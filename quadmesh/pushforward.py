@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .progress import checkpoint, span
+
 __all__ = ["RotatedMap", "evaluate_map", "project_to_sides", "push_forward", "triangle_centres"]
 
 
@@ -48,7 +50,8 @@ def push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarray
     find their side from their long double angle, the triangle centres τ⁻¹(c) come in long
     double from the apex frames.
     """
-    image = evaluate_map(fmap, disk)
+    with span(0.0, 0.8):
+        image = evaluate_map(fmap, disk)
     circ = np.flatnonzero(np.asarray(disk.on_circle, dtype=bool))
     if circ.size:
         ang = np.angle(disk.exact_vertices()[circ])
@@ -57,12 +60,14 @@ def push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarray
             th, ang = theta, ang.astype(float)
         image[circ] = project_to_sides(image[circ], ang, th, zpoly)
     tris = disk.triangles
+    checkpoint(0.85)
     if len(tris):
         idx = np.concatenate([np.asarray(t.inner_vertices) for t in tris])
         zeta = np.concatenate([np.asarray(t.inner_model) for t in tris])
         tid = np.repeat(np.arange(len(tris)), [len(t.inner_vertices) for t in tris])
         apex, off, dzc = triangle_centres(tris)
-        gc, fpc = evaluate_map(fmap, frames=apex, offsets=off)
+        with span(0.85, 1.0):
+            gc, fpc = evaluate_map(fmap, frames=apex, offsets=off)
         dgc = fpc * dzc
         c0 = np.array([t.center for t in tris], dtype=complex)
         image[idx] = gc[tid] + (zeta - c0[tid]) * dgc[tid]

@@ -31,6 +31,7 @@ from scipy.optimize import least_squares
 from scipy.sparse.csgraph import connected_components
 
 from .geometry import quad_angles_deg, quad_signed_areas
+from .progress import checkpoint
 
 __all__ = ["RepairReport", "repair_angles"]
 
@@ -166,6 +167,7 @@ def repair_angles(
     lo_new, hi_new, shift_max = 180.0, 0.0, 0.0
     before_lo, before_hi = 180.0, 0.0
     for c in range(ncomp):
+        checkpoint(c / ncomp)
         sub = region[order[bounds[c] : bounds[c + 1]]]
         got = _solve_region(z0, q, ang, sub, lo, hi, margin, tq, xtol, max_nfev)
         if got is None:
@@ -228,6 +230,7 @@ def _solve_region(
         return z
 
     def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        checkpoint()
         z = unpack(x)
         a = _angles_rad(z, qq)
         r1 = weight * np.maximum(lo_t - a, 0.0).ravel()

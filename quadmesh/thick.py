@@ -15,6 +15,7 @@ import numpy as np
 from .arcs import best_rotation, piece_intervals
 from .errors import ConformalMapError, DiskConstructionError
 from .geometry import quad_angles_deg
+from .progress import span
 from .pushforward import RotatedMap, push_forward
 from .result import MeshOptions
 
@@ -99,7 +100,8 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
     name = None if dec is None else owner_namer(dec, piece)
     t0 = time.perf_counter()
     try:
-        fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
+        with span(0.0, 0.6):
+            fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
     except ConformalMapError as exc:
         raise ConformalMapError(f"{what}: {exc.args[0]}") from exc
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
@@ -113,7 +115,8 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
     theta = np.mod(np.asarray(fmap.theta, dtype=float), 2 * np.pi)
     stretches = [(int(c.start), int(c.stop)) for c in piece.crosscuts]
     try:
-        psi, intervals, owners = best_rotation(theta, stretches, options, name)
+        with span(0.6, 1.0, "choosing arcs"):
+            psi, intervals, owners = best_rotation(theta, stretches, options, name)
     except DiskConstructionError as exc:
         raise DiskConstructionError(f"{what}: {exc.args[0]}{_spacing_help(options)}") from exc
     if psi != 0.0:
@@ -167,7 +170,8 @@ def disk_and_image(
         )
 
     try:
-        disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
+        with span(0.0, 0.2):
+            disk = build(pd.intervals, pd.lemma_A or options.lemma_A)
     except DiskConstructionError as exc:
         # Lemma 2.2's chains of neighbouring arcs can interlock when A is small (a
         # scale-free ~3/40 of random arc sets at A = 4): this piece falls back to the
@@ -177,8 +181,9 @@ def disk_and_image(
             raise DiskConstructionError(_disk_failure(pd, exc) + _spacing_help(options)) from exc
         fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
         try:
-            intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback, pd.name)
-            disk = build(intervals, FALLBACK_A)
+            with span(0.0, 0.2):
+                intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback, pd.name)
+                disk = build(intervals, FALLBACK_A)
         except DiskConstructionError as exc2:
             raise DiskConstructionError(_disk_failure(pd, exc, exc2)) from exc2
         if owners != pd.owners:
@@ -189,7 +194,8 @@ def disk_and_image(
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        image = push_forward(pd.fmap, disk, pd.theta, pd.z)
+        with span(0.2, 0.95, "push-forward"):
+            image = push_forward(pd.fmap, disk, pd.theta, pd.z)
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(
             f"{pd.what}: evaluating its conformal map at the disk mesh failed ({exc}); this "
@@ -204,7 +210,8 @@ def disk_and_image(
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
     pd.repair = None
     if options.repair:
-        image = _repair_image(pd, disk, image, timings)
+        with span(0.95, 1.0, "angle repair"):
+            image = _repair_image(pd, disk, image, timings)
     return disk, image
 
 

@@ -23,6 +23,7 @@ from scipy.spatial import Delaunay, cKDTree
 from shapely.ops import nearest_points
 
 from ..errors import PolygonError
+from ..progress import checkpoint
 
 __all__ = ["harmonic_measure", "inscribed_center"]
 
@@ -157,10 +158,12 @@ def harmonic_measure(
     bh = (L / m)[side]
     nb = bp.size
     ip = _graded_points(poly, bp, bh, hmax, grade)
+    checkpoint(0.2)
     near_c = np.abs(ip - c) < 0.5 * float(np.min(np.abs(bp - c)))
     ip = ip[~near_c]
     P = np.concatenate([bp, ip, [c]])
     tri = Delaunay(np.column_stack([P.real, P.imag])).simplices
+    checkpoint(0.5)
     cen = P[tri].mean(axis=1)
     u = P[tri[:, 1]] - P[tri[:, 0]]
     v = P[tri[:, 2]] - P[tri[:, 0]]
@@ -187,12 +190,14 @@ def harmonic_measure(
     inner = np.flatnonzero(used[nb:]) + nb
     if not used[N - 1] or inner.size == 0:
         raise PolygonError("harmonic measure: the triangulation missed the centre")
+    checkpoint(0.7)
     rhs = np.zeros(inner.size)
     rhs[-1] = 1.0
     with np.errstate(all="ignore"):
         g = spsolve(A[inner][:, inner].tocsc(), rhs)
     if not np.all(np.isfinite(g)):
         raise PolygonError("harmonic measure: singular finite-element system")
+    checkpoint(0.9)
     flux = np.maximum(-(A[:nb][:, inner] @ g), 0.0)
     # a node inside a side belongs to it; a vertex node is shared by its two sides in
     # proportion to the adjacent sample spacings

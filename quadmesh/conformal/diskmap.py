@@ -21,6 +21,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -30,6 +31,7 @@ from scipy.spatial import QhullError, cKDTree
 
 from ..errors import ConformalMapError, PolygonError
 from ..polygon import as_complex, validate_polygon
+from ..progress import Steps, checkpoint, span
 from .center import harmonic_measure, inscribed_center
 from .quadrature import (
     TWO_PI,
@@ -127,6 +129,8 @@ class _Problem:
         self.m = m
         self.rules = make_rules(self.beta, m)
         self.nfev = 0
+        #: progress of a solve: each evaluation is one step (:class:`quadmesh.progress.Steps`)
+        self.steps: Steps | None = None
 
     @staticmethod
     def gaps(x: np.ndarray) -> np.ndarray:
@@ -164,7 +168,8 @@ class _Problem:
         if not np.all(gaps > 0) or not np.all(np.isfinite(gaps)):
             raise QuadratureError("a gap underflowed to zero")
         cfg = Configuration(gaps, self.beta, self.local)
-        S, Ic, JS, JI = self.integrals(cfg, jacobian)
+        with self.steps.next() if self.steps is not None else nullcontext():
+            S, Ic, JS, JI = self.integrals(cfg, jacobian)
         r = self.ref
         eqs = self.eqs
         lS = np.log(np.abs(S))
@@ -303,6 +308,7 @@ def _newton(prob: _Problem, x0: np.ndarray, tol: float, maxit: int = 50):
     nr = float(np.linalg.norm(r))
     it = 0
     for it in range(1, maxit + 1):  # noqa: B007 (it is returned)
+        checkpoint()
         rmax = float(np.max(np.abs(r)))
         if rmax < 5e-14:
             break
@@ -382,6 +388,7 @@ def _levenberg_marquardt(prob: _Problem, x0: np.ndarray, tol: float, maxfev: int
     fev = 1
     history = [f]
     while fev < maxfev and np.max(np.abs(r)) >= 5e-14:
+        checkpoint()
         g = U.T @ r
         accepted = False
         while not accepted and fev < maxfev:
@@ -594,6 +601,7 @@ class DiskMap:
         shift = (int(np.argmax(np.abs(np.roll(w, -1) - w))) + 1) % n
         wr = np.roll(w, -shift)
         prob = _Problem(wr, center, nodes, local, ref=n - 1)
+        prob.steps = Steps(start=0.1)
         p0, u, elong = _principal_frame(w)
         star = _star_shaped(wr, center)
         forced = continuation is True
@@ -609,7 +617,8 @@ class DiskMap:
         est = None
         if not ok:
             # harmonic-measure guess (§1.5): the gap of side k is 2π ω(c, side_k)
-            est = _harmonic_gaps(wr, center)
+            with span(0.0, 0.1):
+                est = _harmonic_gaps(wr, center)
         if est is not None:
             est_gap = float(np.min(est))
             if 0.0 < min_gap < 1.0 and est_gap < min_gap * CROWDING_REJECT:
@@ -662,14 +671,17 @@ class DiskMap:
             )
         final = _Problem(w, center, nodes, local)
         final.nfev = prob.nfev
+        final.steps = prob.steps
         dm = cls(final, np.roll(_Problem.gaps(x), shift), its, steps)
+        final.steps = None
         gmin = float(np.min(dm.gaps))
         if gmin < min_gap:
             k = int(np.argmin(dm.gaps))
             raise ConformalMapError(_crowding_message(w[k], w[(k + 1) % n], center, gmin, min_gap))
         dm.solve_time = time.perf_counter() - t0
         if check:
-            acc = dm.accuracy()
+            with prob.steps.next():
+                acc = dm.accuracy()
             if not acc.passed(tol):
                 raise ConformalMapError(
                     "the conformal map of this part of the polygon failed its accuracy checks: "
@@ -688,6 +700,7 @@ class DiskMap:
         zc = self._cfg.zc
         with np.errstate(divide="ignore"):
             for i in range(0, flat.size, step):
+                checkpoint()
                 B = 1.0 - flat[i : i + step, None] * zc[None, :]
                 out[i : i + step] = self.constant * np.exp(beta_log_sum(B, self.beta))
         return out.reshape(z.shape)
@@ -762,6 +775,7 @@ class DiskMap:
         step = max(1, _CHUNK // self.n)
         zc = self._cfg.zc
         for i in range(0, K, step):
+            checkpoint()
             cc = c[i : i + step]
             A = self.prevertices[None, :] - cc[:, None]
             Ri = np.min(np.abs(A), axis=1)
@@ -802,6 +816,7 @@ class DiskMap:
         orders = self._order(ratio)
         zk = self.prevertices
         for o in np.unique(orders):
+            checkpoint()
             sel = np.flatnonzero(orders == o)
             g = self._vertex_coefficients(ks[sel], int(o))
             remap = np.full(ks.size, -1)
@@ -859,7 +874,9 @@ class DiskMap:
         else:
             _, d0 = self._nearest(centers, ld=off is not None)
             R = np.abs(d0)
+            checkpoint()
             t_all = self._offsets(flat, off, centers[cid], np.arange(flat.size))
+            checkpoint()
             rho = np.zeros(centers.size)
             np.maximum.at(rho, cid, np.abs(t_all))
             good = (rho <= 0.5 * R) & (np.abs(centers) <= 1.0)
@@ -874,17 +891,22 @@ class DiskMap:
             gid = remap[cid[good_pt]]
             tg = t_all[good_pt]
         rest = np.flatnonzero(~good_pt)
+        checkpoint()
         k, d = self._nearest(flat[rest], off, rest)
         vert = np.abs(d) <= 0.5 * self._cfg.nn[k]
         iv = rest[vert]
+        checkpoint()
         if iv.size:
             ff, dd = self._eval_vertex(k[vert], d[vert], derivative)
             f[iv] = ff
             if derivative:
                 fp[iv] = dd
         ic = rest[~vert]
+        checkpoint()
         ccid, ccen, crho = _dyadic_cells(flat[ic], np.abs(d[~vert]), self)
+        checkpoint()
         tc = self._offsets(flat, off, ccen[ccid], ic)
+        checkpoint()
         pts = np.r_[np.flatnonzero(good_pt), ic]
         allcid = np.r_[gid, ccid + gcen.size]
         ff, dd = self._eval_clusters(
@@ -908,6 +930,7 @@ class DiskMap:
         if K == 0:
             return out_f, out_d
         kk, s = self._nearest(cen, ld=ld)
+        checkpoint()
         R = np.abs(s)
         crowd = (R < CROWD_RADIUS) & (R > 0.0)
         for sel, local in ((np.flatnonzero(~crowd), False), (np.flatnonzero(crowd), True)):
@@ -954,6 +977,7 @@ class DiskMap:
             sel = np.flatnonzero(orders == o)
             G = np.empty((sel.size, int(o) + 1), dtype=np.complex128)
             for i in range(0, sel.size, step):
+                checkpoint()
                 ch = sel[i : i + step]
                 A = self._cfg.E[kc[ch]] - s[ch, None]  # z_j − c
                 lam0 = beta_log_sum(A * zc[None, :], self.beta)  # Σ β_j log(1 − c/z_j)
@@ -1033,14 +1057,16 @@ class DiskMap:
         allR = np.abs(dall)
         orders = np.maximum(self._order(allrho / allR), 32)
         T = allc.size
-        groups = log_expansions(self.prevertices, self.theta, self.beta, allc, allrho, orders)
+        with span(0.0, 0.6):
+            groups = log_expansions(self.prevertices, self.theta, self.beta, allc, allrho, orders)
         olist = np.unique(orders)
         grp = np.searchsorted(olist, orders)
         row = np.empty(T, dtype=np.intp)
         G = [np.empty((int(np.sum(orders == o)), int(o) + 1), dtype=np.complex128) for o in olist]
         for gi in range(olist.size):
             row[grp == gi] = np.arange(G[gi].shape[0])
-        for t, a in groups:
+        for gi, (t, a) in enumerate(groups):
+            checkpoint(0.6 + 0.2 * gi / len(groups))
             b = a.copy()
             b[:, 0] = 0.0
             G[int(grp[t[0]])][row[t]] = exp_series(b, self.constant * np.exp(a[:, 0]))
@@ -1074,6 +1100,7 @@ class DiskMap:
             jp = np.mod(np.rint(ang / (TWO_PI / Np)), Np).astype(np.int64)
             parent[ch] = match_rows(akeys, np.stack([sp, jp], axis=1))
         for lev in range(1, int(As.max()) + 1):
+            checkpoint(0.8 + 0.1 * lev / As.max())
             idx = np.flatnonzero(As == lev)
             if idx.size == 0:
                 continue
@@ -1092,6 +1119,7 @@ class DiskMap:
         if iv.size:
             fc[iv] = self._eval_vertex(kk[iv], dkk[iv], False)[0]
         # the points
+        checkpoint(0.9)
         out_f[:] = fc[cid] + integral(cid, toff)
         if derivative:
             out_d[:] = series(cid, toff, False)
@@ -1292,6 +1320,7 @@ class DiskMap:
         M = flat.size
 
         def rhs(_t: float, y: np.ndarray) -> np.ndarray:
+            checkpoint()
             zz = y[:M] + 1j * y[M:]
             zz = zz / np.maximum(np.abs(zz), 1.0)
             v = dw / self.derivative(zz)
@@ -1305,6 +1334,7 @@ class DiskMap:
         err_all = np.full(M, np.inf)
         active = np.arange(M)
         for _ in range(12):
+            checkpoint()
             fz, fpz = self._evaluate(z[active], True)
             err = fz - flat[active]
             err_all[active] = np.abs(err)
@@ -1390,6 +1420,7 @@ def _dyadic_cells(z: np.ndarray, r: np.ndarray, fmap: DiskMap):
         return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.complex128), np.empty(0)
     lev = np.floor(np.log2(np.maximum(r, 1e-300) / 4.0)).astype(np.int64)
     for _ in range(6):
+        checkpoint()
         h = np.ldexp(1.0, lev)
         keys = np.stack([lev, np.floor(z.real / h), np.floor(z.imag / h)], axis=1)
         ukeys, cid = _unique_rows(keys.astype(np.int64))
@@ -1446,6 +1477,7 @@ def _continue(prob: _Problem, family, tol: float, min_gap: float = 0.0, max_step
     steps = 0
     ws, cs = family(0.0)
     sub = _Problem(ws, cs, prob.m, prob.local, prob.ref)
+    sub.steps = prob.steps
     g0 = None if _star_shaped(ws, cs) else _harmonic_gaps(ws, cs)
     x, res, k, ok = _newton(sub, _x_from_gaps(_initial_gaps(ws, cs) if g0 is None else g0), tol)
     its += k
@@ -1456,7 +1488,11 @@ def _continue(prob: _Problem, family, tol: float, min_gap: float = 0.0, max_step
     while t < 1.0:
         tn = min(1.0, t + h)
         ws, cs = family(tn)
-        sub = prob if tn == 1.0 else _Problem(ws, cs, prob.m, prob.local, prob.ref)
+        if tn < 1.0:
+            sub = _Problem(ws, cs, prob.m, prob.local, prob.ref)
+            sub.steps = prob.steps
+        else:
+            sub = prob
         x1, res, k, ok = _newton(sub, x, tol)
         its += k
         steps += 1

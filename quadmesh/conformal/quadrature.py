@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..progress import checkpoint
+
 __all__ = [
     "Configuration",
     "IntegralPlan",
@@ -293,6 +295,7 @@ def integrate(
     z_abs = np.append(cfg.z, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         for lo, hi in itertools.pairwise(bounds):
+            checkpoint(lo / Q)
             bq = base[lo:hi]
             dq = d[lo:hi]
             # A = z_j − s and B = A/z_j = 1 − s/z_j, in real arithmetic (numpy's complex

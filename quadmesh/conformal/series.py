@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from ..progress import checkpoint
+
 __all__ = [
     "exp_series",
     "horner",
@@ -140,6 +142,7 @@ def p2l(
     inv_m = -1.0 / np.arange(1, order + 1)
     step = 65536
     for i0 in range(0, rs.size, step):
+        checkpoint()
         r = rs[i0 : i0 + step]
         P = np.empty((r.size, order), dtype=np.complex128)
         P[:] = qs[i0 : i0 + step, None]
@@ -240,6 +243,7 @@ def log_expansions(
     box_of_target = np.full(K, -1, dtype=np.int64)
     level_exp: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for lev in range(top, lo - 1, -1):
+        checkpoint(0.5 * (top - lev) / max(top - lo + 1, 1))
         sel = np.flatnonzero(lev_t <= lev)
         sh = lev - lev_t[sel]
         bx = kx[sel] >> sh
@@ -272,9 +276,12 @@ def log_expansions(
         level_exp[lev] = (cen, exp)
         prev_keys, prev_exp, cen_prev = keys, exp, cen
     out: list[tuple[np.ndarray, np.ndarray]] = []
+    done, total = 0, max(K, 1)
     for o in np.unique(orders):
         for lev in np.unique(lev_t):
+            checkpoint(0.5 + 0.5 * done / total)
             t = np.flatnonzero((orders == o) & (lev_t == lev))
+            done += t.size
             if t.size == 0:
                 continue
             cen, exp = level_exp[int(lev)]

@@ -39,6 +39,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import DiskConstructionError
+from ..progress import checkpoint, span
 from .canonical import orient_quads
 from .carleson_quad import carleson_quad_mesh, carleson_quad_to_disk
 from .carleson_triangle import depth_sequence, model_triangle_mesh
@@ -265,7 +266,8 @@ def disk_mesh(
     else:
         if A is None:
             raise DiskConstructionError("disk_mesh needs the expansion factor A")
-        R = build_region(intervals, A)
+        with span(0.0, 0.5):
+            R = build_region(intervals, A)
     if int(n) != n or n < 1:
         raise DiskConstructionError(
             f"n (steps per half side) must be a positive integer, got {n!r}"
@@ -279,6 +281,7 @@ def disk_mesh(
     TM = model_triangle_mesh(depths, inner_height)
 
     # ------------------------------------------------------------------ pentagons
+    checkpoint(0.5)
     T = R.n_pentagons
     Vp = PM.n_vertices
     side_idx = np.stack([PM.sides[f"edge{k}"] for k in range(5)])  # (5, ns+1)
@@ -302,6 +305,7 @@ def disk_mesh(
     pent_quads = pent_gid[np.arange(T)[:, None, None], orient_quads(PM.quads, R.tiles.sigma)]
 
     # ------------------------------------------------------------------ Carleson quadrilaterals
+    checkpoint(0.6)
     C = len(R.cover)
     nonj = np.array([c.kind != KIND_J for c in R.cover])
     Qc = len(R.quads)
@@ -387,6 +391,7 @@ def disk_mesh(
     cq_quads = q_ids[np.arange(Qc)[:, None, None], qq]
 
     # ------------------------------------------------------------------ Carleson triangles
+    checkpoint(0.75)
     Tr = len(R.triangles)
     t_cross = np.array([t.crossing for t in R.triangles], dtype=np.int64)
     t_left_ray = ray_base[t_cross] + m_i[t_cross]  # last ray under X_i
@@ -438,6 +443,7 @@ def disk_mesh(
     tri_quads = t_ids[np.arange(Tr)[:, None, None], np.asarray(TM.quads)[None]]
 
     # ------------------------------------------------------------------ global arrays
+    checkpoint(0.9)
     V = nxt
     verts = np.empty(V, dtype=np.complex128)
     verts[:n_pv] = rep
@@ -480,9 +486,11 @@ def disk_mesh(
 
     # ------------------------------------------------------------------ γ_j vertex lists
     gamma: list[NDArray[np.int64]] = [np.zeros(0, np.int64)] * R.m
+    checkpoint(0.92)
     for i, c in enumerate(R.cover):
         if c.kind != KIND_J:
             continue
+        checkpoint(0.92)
         e = R.cover_edges[i]
         ids = pent_gid[e[:, 0][:, None], side_idx[e[:, 1]]]
         ids = np.where(R.tiles.sigma[e[:, 0]][:, None], ids[:, ::-1], ids)  # start -> end side
@@ -498,6 +506,7 @@ def disk_mesh(
         gamma[c.interval] = np.concatenate([r_end[::-1], chain[::-1][1:-1], r_start])
 
     # ------------------------------------------------------------------ triangle maps
+    checkpoint(0.95)
     inner_v = np.asarray(TM.inner_vertex, bool)
     inner_idx = np.flatnonzero(inner_v)
     frame_m = np.zeros((Tr, 2, 2), np.complex128)

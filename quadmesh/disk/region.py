@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import DiskConstructionError
 from ..hyperbolic import Isometry, phi
+from ..progress import checkpoint, span
 from .tessellation import (
     EDGE_MIDPOINTS_LD,
     P0_VERTICES,
@@ -368,7 +369,8 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     sq = np.sqrt(np.longdouble(A))
     centre = iv[:, 0] + iv[:, 1] / 2
     es, el = np.mod(centre - sq * iv[:, 1] / 2, TWO_PI_LD), sq * iv[:, 1]
-    js, jl, _, _ = minimal_containing_arc(es, el)
+    with span(0.0, 0.5):
+        js, jl, _, _ = minimal_containing_arc(es, el)
     ratio = jl / el
 
     # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r (DISK.md §2)
@@ -478,6 +480,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     seeds = Isometry(
         np.concatenate([g0.M, Pl.M, Pr.M]), np.concatenate([g0.sigma, Pl.sigma, Pr.sigma])
     )
+    checkpoint(0.6)
     grow_tiles(seeds, stop_candidates, max_tiles=cap)  # records the candidates through the callback
     cs = np.concatenate(cand_s)
     cl = np.concatenate(cand_l)
@@ -493,7 +496,9 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
 
     cg_order = np.argsort(cgap, kind="stable")
     cg_bounds = np.searchsorted(cgap[cg_order], np.arange(m + 1))
+    checkpoint(0.7)
     for pos, k in enumerate(order):
+        checkpoint(0.7 + 0.1 * pos / m)
         nxt = order[(pos + 1) % m]
         add_cover(KIND_JL, int(k), Jl[k, 0], Jl[k, 1])
         add_cover(KIND_J, int(k), J[k, 0], J[k, 1])
@@ -539,7 +544,9 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     seeds = Isometry(
         np.concatenate([Pl.M, g0.M, Pr.M]), np.concatenate([Pl.sigma, g0.sigma, Pr.sigma])
     )
+    checkpoint(0.8)
     tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=cap)
+    checkpoint(0.9)
     chain_tiles = seed_idx.reshape(3, m).T.copy()
 
     # ---- boundary edges per cover arc, ordered from the arc's start side to its end side

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..errors import DiskConstructionError
 from ..hyperbolic import Isometry
 from ..hyperbolic.isometry import normalize_matrix
+from ..progress import checkpoint
 
 __all__ = [
     "EDGE_CENTERS",
@@ -340,6 +341,7 @@ def locate(z: ArrayLike, max_steps: int = 400) -> Isometry:
     for _ in range(max_steps):
         if active.size == 0:
             break
+        checkpoint()
         viol = EDGE_RADIUS_LD - np.abs(w[:, None] - EDGE_CENTERS_LD[None, :])
         k = np.argmax(viol, axis=1)
         move = viol[np.arange(active.size), k] > 1e-13
@@ -658,6 +660,7 @@ def grow_tiles(
     lab_rows: list[NDArray[np.int64]] = []
     row_of: list[NDArray[np.int64]] = []
     while frontier.size:
+        checkpoint()
         g = Isometry(ts._M[frontier], ts._sigma[frontier])
         s, ell = tile_edge_far_arcs(g)
         lab = stop(s.ravel(), ell.ravel()).reshape(-1, 5)
@@ -759,6 +762,11 @@ def _group11_geodesics() -> tuple[
 _G11_START, _G11_END, _G11_TILE, _G11_EDGE = _group11_geodesics()
 
 
+#: Arcs searched together by :func:`minimal_containing_arc`: a cancellation point every ~0.05 s;
+#: blocks also run faster than one batch of all arcs (6.2 s against 9.7 s for 39000 arcs).
+_ARC_BLOCK = 1024
+
+
 def minimal_containing_arc(
     start: ArrayLike, length: ArrayLike, step: float = 0.5, chunk: float = 4.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], Isometry, NDArray[np.int64]]:
@@ -797,40 +805,49 @@ def minimal_containing_arc(
     best_c = np.zeros(n, np.int64)  # candidate index: geodesic * 2 + (1 for the opposite arc)
     todo = np.arange(n)
     t0 = 0.0
+    rounds = 0
     while todo.size:
         ts = np.arange(t0, t0 + chunk, step)
-        dist = np.clip(dtop[todo, None] - ts[None, :], 0.0, None)  # distance of samples from 0
-        pts = u[todo, None] * np.tanh(dist / 2.0)
-        g = locate(pts.ravel())
-        a = g.apply_rows(_G11_START)  # (P, ng)
-        b = g.apply_rows(_G11_END)
-        rev = g.sigma[:, None]
-        fa = _angle(np.where(rev, b, a))  # far arc of the group tile's edge: fa -> fb
-        fb = _angle(np.where(rev, a, b))
-        far_l = np.mod(fb - fa, TWO_PI_LD)
-        cs = np.stack([fa, fb], axis=2).reshape(len(g), -1)  # (P, 2·ng): far arc, opposite
-        cl = np.stack([far_l, TWO_PI_LD - far_l], axis=2).reshape(len(g), -1)
-        owner = np.repeat(todo, ts.size)
-        ok = arc_contains_arc(cs, cl, s[owner, None], ell[owner, None]) & (cl < math.pi)
-        score = np.where(ok, cl, np.inf).reshape(todo.size, -1)
-        j = np.argmin(score, axis=1)
-        val = score[np.arange(todo.size), j]
-        better = val < best_l[todo]
-        if np.any(better):
-            w = todo[better]
-            sample, cand = np.divmod(
-                np.arange(todo.size)[better] * (ts.size * 2 * ng) + j[better], 2 * ng
-            )
-            best_l[w] = val[better]
-            best_s[w] = cs[sample, cand]
-            best_M[w] = g.M[sample]
-            best_sig[w] = g.sigma[sample]
-            best_c[w] = cand
-        # stop where even the shortest geodesic through the next sample is no better
-        nxt = np.tanh(np.clip(dtop[todo] - (t0 + chunk), 0.0, None) / 2)
-        done = (_min_arc_through_radius(nxt) >= best_l[todo]) | (dtop[todo] - t0 - chunk <= 0)
-        todo = todo[~done]
+        # blocks of arcs (each arc's search is independent of the others): bounded memory and
+        # a cancellation point every block
+        left = []
+        for b0 in range(0, todo.size, _ARC_BLOCK):
+            checkpoint(1.0 - 0.6**rounds * (1.0 - 0.4 * b0 / todo.size))
+            blk = todo[b0 : b0 + _ARC_BLOCK]
+            dist = np.clip(dtop[blk, None] - ts[None, :], 0.0, None)  # distance of samples from 0
+            pts = u[blk, None] * np.tanh(dist / 2.0)
+            g = locate(pts.ravel())
+            a = g.apply_rows(_G11_START)  # (P, ng)
+            b = g.apply_rows(_G11_END)
+            rev = g.sigma[:, None]
+            fa = _angle(np.where(rev, b, a))  # far arc of the group tile's edge: fa -> fb
+            fb = _angle(np.where(rev, a, b))
+            far_l = np.mod(fb - fa, TWO_PI_LD)
+            cs = np.stack([fa, fb], axis=2).reshape(len(g), -1)  # (P, 2·ng): far arc, opposite
+            cl = np.stack([far_l, TWO_PI_LD - far_l], axis=2).reshape(len(g), -1)
+            owner = np.repeat(blk, ts.size)
+            ok = arc_contains_arc(cs, cl, s[owner, None], ell[owner, None]) & (cl < math.pi)
+            score = np.where(ok, cl, np.inf).reshape(blk.size, -1)
+            j = np.argmin(score, axis=1)
+            val = score[np.arange(blk.size), j]
+            better = val < best_l[blk]
+            if np.any(better):
+                w = blk[better]
+                sample, cand = np.divmod(
+                    np.arange(blk.size)[better] * (ts.size * 2 * ng) + j[better], 2 * ng
+                )
+                best_l[w] = val[better]
+                best_s[w] = cs[sample, cand]
+                best_M[w] = g.M[sample]
+                best_sig[w] = g.sigma[sample]
+                best_c[w] = cand
+            # stop where even the shortest geodesic through the next sample is no better
+            nxt = np.tanh(np.clip(dtop[blk] - (t0 + chunk), 0.0, None) / 2)
+            done = (_min_arc_through_radius(nxt) >= best_l[blk]) | (dtop[blk] - t0 - chunk <= 0)
+            left.append(blk[~done])
+        todo = np.concatenate(left)
         t0 += chunk
+        rounds += 1
     if np.any(~np.isfinite(best_l)):
         bad = int(np.nonzero(~np.isfinite(best_l))[0][0])
         raise DiskConstructionError(

@@ -41,6 +41,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import least_squares
 
 from ..errors import ThinPartError
+from ..progress import checkpoint
 from .channel import Walls
 from .mesh import quad_angles_deg, quad_signed_areas
 
@@ -308,6 +309,7 @@ def conformal_collar(
     params = np.zeros(33)
     params[0] = x_mean - x0
     while True:
+        checkpoint()
         fmap, resid, params = _solve_map(spl, span, x0, params)
         n_modes = len(params) - 1
         if resid <= 1e-5 * span or 2 * n_modes > max_modes:
@@ -339,6 +341,7 @@ def conformal_collar(
     n_col = max(2, math.ceil(cum[-1] / (0.8 * eta)))
 
     while True:
+        checkpoint()
         if n_col > max_columns:
             raise ThinPartError(f"collar needs more than {max_columns} columns")
         sig = np.interp(cum[-1] * np.arange(n_col + 1) / n_col, cum, sf)

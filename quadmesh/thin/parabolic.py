@@ -53,6 +53,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from ..errors import ThinPartError
+from ..progress import checkpoint
 from .mesh import (
     KIND_CONNECTION,
     KIND_MESH1,
@@ -532,6 +533,7 @@ def _sector_from_tree(
     found = None
     best_dev = math.inf
     for lam_try in lam * _LAM_FACTORS:
+        checkpoint()
         scale = lam_try * float(rad.min()) / r_j
         base = v + scale * u1 * zu
         # Put the side vertices exactly on the segments v-g_0 and v-g_{P-1}.
