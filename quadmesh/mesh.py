@@ -135,11 +135,10 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
 
     Computed exactly (up to float64 rounding of the distances): a disk that meets no
     non-incident pair meets at most one corner and two sides, so only the three nearest
-    corners (:class:`scipy.spatial.cKDTree`) and the three nearest sides matter; the sides are
-    found with a :class:`shapely.STRtree` ``dwithin`` query of radius u1 + h (u1 = distance
-    to the sides at the nearest corner; h grows ×4 from a twentieth of the distance to that
-    corner, or a quarter of the gap to the second-nearest corner's distance) until the disk
-    of that radius holds the answer. Vectorised.
+    corners (:class:`scipy.spatial.cKDTree`) and the three nearest sides matter; lfs is at
+    most the distance to the second-nearest corner, so the sides are the three nearest of
+    those within that distance (one :class:`shapely.STRtree` ``dwithin`` query). Vectorised:
+    about a second per 300 000 points on one core.
 
     Args:
         polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
@@ -166,64 +165,43 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     p1 = np.roll(pz, -1)
 
     # corners: the three nearest; two distinct corners are never incident, so the
-    # second-nearest corner distance bounds lfs from above
+    # second-nearest corner distance r bounds lfs from above: only features within r matter
     dv, iv = cKDTree(poly.vertices).query(np.column_stack([x.real, x.imag]), k=min(3, n))
-    upper = dv[:, 1]
-    # the sides at the nearest corner bound the distance d1 to the nearest side from above
-    v1 = iv[:, 0]
-    u1 = np.minimum(_segment_distance(x, pz[v1], p1[v1]), _segment_distance(x, pz[v1 - 1], pz[v1]))
+    r = dv[:, 1]
     sides = shapely.linestrings(np.stack([poly.vertices, np.roll(poly.vertices, -1, axis=0)], 1))
-    tree = shapely.STRtree(sides)
-    qpts = shapely.points(x.real, x.imag)
+    ii, jj = shapely.STRtree(sides).query(
+        shapely.points(x.real, x.imag), predicate="dwithin", distance=r
+    )
+    dist = _segment_distance(x[ii], pz[jj], p1[jj])
+    order = np.lexsort((dist, ii))
+    ii, jj, dist = ii[order], jj[order], dist[order]
+    rank = np.arange(ii.size) - np.searchsorted(ii, np.arange(m))[ii]
+    top = rank < 3
+    sid = np.full((m, 3), -1, dtype=np.int64)  # the three nearest sides (-1: none within r)
+    sd = np.full((m, 3), np.inf)
+    sid[ii[top], rank[top]] = jj[top]
+    sd[ii[top], rank[top]] = dist[top]
+    ok = sid >= 0
 
     def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         k = (a - b) % n
         return (k == 0) | (k == 1) | (k == n - 1)
 
-    out = np.full(m, np.nan)
-    # disks of radius u1 + h, h growing ×4: deep inside, many sides lie near distance d1,
-    # so the first disk hugs it; on the boundary (u1 = 0) it starts at a quarter of the bound
-    grow = np.maximum(0.05 * dv[:, 0], 0.25 * (upper - u1))
-    radius = np.minimum(u1 + grow, upper)
-    active = np.arange(m)
-    while active.size:
-        r = radius[active]
-        xa = x[active]
-        ii, jj = tree.query(qpts[active], predicate="dwithin", distance=r)
-        dist = _segment_distance(xa[ii], pz[jj], p1[jj])
-        keep = dist <= r[ii]
-        ii, jj, dist = ii[keep], jj[keep], dist[keep]
-        order = np.lexsort((dist, ii))
-        ii, jj, dist = ii[order], jj[order], dist[order]
-        first = np.searchsorted(ii, np.arange(active.size))
-        rank = np.arange(ii.size) - first[ii]
-        top = rank < 3
-        sid = np.full((active.size, 3), -1, dtype=np.int64)
-        sd = np.full((active.size, 3), np.inf)
-        sid[ii[top], rank[top]] = jj[top]
-        sd[ii[top], rank[top]] = dist[top]
-        ok = sid >= 0
-        # r >= u1 >= d1: the first of the sides found is a nearest side s1 (ties aside)
-        s1 = np.where(ok[:, 0], sid[:, 0], v1[active])
-        # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
-        ivs, dvs = iv[active], dv[active]
-        ends1 = (ivs == s1[:, None]) | (ivs == ((s1 + 1) % n)[:, None])
-        best = np.minimum(upper[active], np.where(ends1, np.inf, dvs).min(axis=1))
-        # side-side pairs among the three nearest sides
-        for a, b in ((0, 1), (0, 2), (1, 2)):
-            pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
-            best = np.where(pair, np.minimum(best, sd[:, b]), best)
-        # (corner e at an end of s1, side not ending at e): the nearest such side is among
-        # the three nearest sides
-        for e in (s1, (s1 + 1) % n):
-            on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
-            t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
-            best = np.minimum(best, np.maximum(np.abs(xa - pz[e]), t))
-        done = (best <= r) | (r >= upper[active])
-        out[active[done]] = best[done]
-        active = active[~done]
-        grow[active] *= 4.0
-        radius[active] = np.minimum(u1[active] + grow[active], upper[active])
+    # the nearest side s1 lies within r (the sides at the nearest corner do)
+    s1 = np.where(ok[:, 0], sid[:, 0], iv[:, 0])
+    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
+    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
+    out = np.minimum(r, np.where(ends1, np.inf, dv).min(axis=1))
+    # side-side pairs: the best is among the three nearest sides
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
+        out = np.where(pair, np.minimum(out, sd[:, b]), out)
+    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
+    # three nearest sides; other corner-side pairs are dominated by the ones above
+    for e in (s1, (s1 + 1) % n):
+        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
+        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
+        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
     return out
 
 
