@@ -68,6 +68,7 @@ def run(max_n: int = 1000, repeat: int = 1, options: MeshOptions | None = None) 
                 "min": result.quality.min_angle,
                 "max": result.quality.max_angle,
                 "n_used": result.pieces[0].n_used,
+                "min_edge_lfs": result.quality.min_edge_lfs,
                 **{f"t_{k}": v for k, v in result.timings.items()},
             }
         )
@@ -78,25 +79,62 @@ def _slope(x: list[float], y: list[float]) -> float:
     return float(np.polyfit(np.log(x), np.log(y), 1)[0])
 
 
-def run_examples() -> None:
-    """Mesh every bundled example and print one line each (or why it failed)."""
+_SIZE_HEAD = f" {'min edge/lfs':>12} {'<1/1000':>8} {'<1/50':>7}"
+
+
+def _size_cells(q) -> str:
+    """The size columns of a quality report: smallest edge / local feature size, and the
+    percentages of edges below 1/1000 and 1/50 of their local feature size."""
+    if q.min_edge_lfs is None:
+        return f" {'-':>12} {'-':>8} {'-':>7}"
+    return (
+        f" {q.min_edge_lfs:12.3g} {100 * q.share_below_floor:7.3g}% "
+        f"{100 * q.share_below_warn:6.3g}%"
+    )
+
+
+def _size_row(q) -> dict:
+    """The size fields of a quality report for a benchmark row."""
+    return {
+        "min_edge_lfs": q.min_edge_lfs,
+        "median_edge_lfs": q.median_edge_lfs,
+        "share_below_floor": q.share_below_floor,
+        "share_below_warn": q.share_below_warn,
+    }
+
+
+def run_examples(names: list[str] | None = None) -> list[dict]:
+    """Mesh every bundled example (or those named) and print one line each (or why it
+    failed): time, quads, quads per vertex, n used, smallest edge / local feature size and
+    the shares of edges below 1/1000 and 1/50 of it. Returns the rows."""
     from .errors import QuadmeshError
     from .examples import example_names, load_example
 
-    print(f"{'example':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}")
-    for name in example_names():
+    rows = []
+    print(
+        f"{'example':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}"
+        + _SIZE_HEAD
+    )
+    for name in names or example_names():
         poly = load_example(name)
         t0 = time.perf_counter()
         try:
             r = mesh_polygon(poly)
         except QuadmeshError as exc:
-            print(f"{name:22s} {len(poly):5d} {time.perf_counter() - t0:8.2f} failed: {exc}")
+            dt = time.perf_counter() - t0
+            print(f"{name:22s} {len(poly):5d} {dt:8.2f} failed: {exc}")
+            rows.append({"name": name, "n": len(poly), "total": dt, "failed": exc.stage})
             continue
+        dt = time.perf_counter() - t0
         q = r.quality
         print(
-            f"{name:22s} {len(poly):5d} {time.perf_counter() - t0:8.2f} {q.n_quads:9d} "
-            f"{q.n_quads / len(poly):8.0f} {r.pieces[0].n_used:6d}"
+            f"{name:22s} {len(poly):5d} {dt:8.2f} {q.n_quads:9d} "
+            f"{q.n_quads / len(poly):8.0f} {r.pieces[0].n_used if r.pieces else 0:6d}"
+            + _size_cells(q),
+            flush=True,
         )
+        rows.append({"name": name, "n": len(poly), "total": dt, "quads": q.n_quads, **_size_row(q)})
+    return rows
 
 
 def _fix_tags(fixes) -> str:
@@ -124,7 +162,9 @@ def run_outlines(seed: int = 0) -> list[dict]:
 
     rows = []
     print(
-        f"{'outline':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}  fixes"
+        f"{'outline':22s} {'n':>5} {'total s':>8} {'quads':>9} {'quads/n':>8} {'n_used':>6}"
+        + _SIZE_HEAD
+        + "  fixes"
     )
     for name, poly in stress_outlines(seed).items():
         t0 = time.perf_counter()
@@ -138,11 +178,13 @@ def run_outlines(seed: int = 0) -> list[dict]:
         dt = time.perf_counter() - t0
         q = r.quality
         fixes = _fix_tags(f for p in r.pieces for f in p.fixes)
+        n_used = max((p.n_used for p in r.pieces), default=0)
         print(
             f"{name:22s} {len(poly):5d} {dt:8.2f} {q.n_quads:9d} {q.n_quads / len(poly):8.0f} "
-            f"{max(p.n_used for p in r.pieces):6d}  {fixes}"
+            f"{n_used:6d}" + _size_cells(q) + f"  {fixes}",
+            flush=True,
         )
-        rows.append({"name": name, "n": len(poly), "total": dt, "quads": q.n_quads})
+        rows.append({"name": name, "n": len(poly), "total": dt, "quads": q.n_quads, **_size_row(q)})
     ok = [r for r in rows if "failed" not in r]
     print(f"{len(ok)} of {len(rows)} outlines meshed and verified")
     return rows
@@ -164,6 +206,7 @@ def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> Non
     else:
         out = {"status": "meshed", "quads": int(r.quality.n_quads)}
         out["min_angle"], out["max_angle"] = r.quality.min_angle, r.quality.max_angle
+        out.update(_size_row(r.quality))
     out["time"] = time.perf_counter() - t0
     conn.send(out)
     conn.close()
@@ -179,7 +222,9 @@ def mesh_with_timeout(
     """Mesh every polygon in its own worker process (at most ``workers`` at a time); a worker
     still running after ``timeout`` seconds is killed and its polygon reported as
     ``status="timeout"``. Returns one dict per polygon, in order: ``status`` (meshed, failed,
-    crashed, timeout), ``time`` and either ``quads`` or ``error``/``stage``/``message``.
+    crashed, timeout), ``time`` and either ``quads`` and the size fields (``min_edge_lfs``,
+    ``median_edge_lfs``, ``share_below_floor``, ``share_below_warn``) or
+    ``error``/``stage``/``message``.
     ``on_result(i, result)`` is called as each polygon finishes."""
     import multiprocessing as mp
     from multiprocessing.connection import wait
@@ -316,8 +361,10 @@ def summarise_families(rows: list[dict]) -> list[dict]:
     """Per family: ``meshed``/``total``, median and max quads per polygon vertex (meshed
     polygons), median and max time (all polygons; a timeout counts as the timeout),
     median and min of the smallest edge / local width, median and max length/width (the
-    generator's nominal ratio where defined, else area / width²) and ``failures``: reason ->
-    count (:func:`_reason`)."""
+    generator's nominal ratio where defined, else area / width²), the median and min over
+    the meshed polygons of the smallest mesh edge / local feature size (``edge_lfs_median``,
+    ``edge_lfs_min``) and the largest share of edges below 1/1000 of it
+    (``below_floor_max``), and ``failures``: reason -> count (:func:`_reason`)."""
     from collections import Counter
 
     out = []
@@ -328,6 +375,8 @@ def summarise_families(rows: list[dict]) -> list[dict]:
         times = [r["time"] for r in rs]
         ew = [r["min_edge_over_width"] for r in rs]
         asp = [r["nominal_aspect"] or r["aspect"] for r in rs]
+        lfs = [r["min_edge_lfs"] for r in ok if r.get("min_edge_lfs") is not None]
+        below = [r["share_below_floor"] for r in ok if r.get("share_below_floor") is not None]
         out.append(
             {
                 "family": fam,
@@ -344,6 +393,9 @@ def summarise_families(rows: list[dict]) -> list[dict]:
                 "edge_over_width_min": float(np.min(ew)),
                 "aspect_median": float(np.median(asp)),
                 "aspect_max": float(np.max(asp)),
+                "edge_lfs_median": float(np.median(lfs)) if lfs else None,
+                "edge_lfs_min": float(np.min(lfs)) if lfs else None,
+                "below_floor_max": float(np.max(below)) if below else None,
                 "failures": dict(
                     Counter(_reason(r) for r in rs if r["status"] != "meshed").most_common()
                 ),
@@ -369,6 +421,8 @@ def format_family_table(summary: list[dict]) -> str:
         ("time s med/max", 15),
         ("edge/width med/min", 19),
         ("L/w med/max", 12),
+        ("min edge/lfs med/min", 21),
+        ("<1/1000 max", 11),
     ]
     lines = [f"{'family':12s} " + " ".join(f"{c:>{w}}" for c, w in cols)]
     for s in summary:
@@ -381,6 +435,8 @@ def format_family_table(summary: list[dict]) -> str:
             ),
             pair(f"{s['edge_over_width_median']:.3f}", f"{s['edge_over_width_min']:.4f}"),
             pair(f"{s['aspect_median']:.0f}", f"{s['aspect_max']:.0f}"),
+            pair(num(s["edge_lfs_median"], ".2g"), num(s["edge_lfs_min"], ".2g")),
+            "-" if s["below_floor_max"] is None else f"{100 * s['below_floor_max']:.3g}%",
         ]
         lines.append(
             f"{s['family']:12s} " + " ".join(f"{c:>{w}}" for c, (_, w) in zip(cells, cols))
@@ -389,7 +445,10 @@ def format_family_table(summary: list[dict]) -> str:
     lines.append(
         "edge/width: smallest edge length / local width (diameter of the largest inscribed "
         "disk tangent at the edge's midpoint); L/w: nominal corridor length/width, else "
-        "area/width²; '+' after a time: timeouts"
+        "area/width²; '+' after a time: timeouts; min edge/lfs: per meshed polygon, the "
+        "smallest mesh edge over the polygon's local feature size at its midpoint (median and "
+        "min over the family); <1/1000 max: the largest share of a polygon's edges below "
+        "1/1000 of their local feature size"
     )
     for s in summary:
         if s["failures"]:
@@ -422,6 +481,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-n", type=int, default=1000)
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--examples", action="store_true", help="mesh every bundled example")
+    ap.add_argument(
+        "--example",
+        action="append",
+        default=None,
+        metavar="NAME",
+        help="with --examples: only this example (repeatable)",
+    )
     ap.add_argument("--disk", action="store_true", help="benchmark the disk construction")
     ap.add_argument(
         "--outlines", action="store_true", help="mesh generated outlines (quadmesh.outlines)"
@@ -458,7 +524,7 @@ def main(argv: list[str] | None = None) -> int:
         print(format_family_table(summary))
         return 0
     if args.examples:
-        run_examples()
+        run_examples(args.example)
         return 0
     if args.disk:
         run_disk()
@@ -469,12 +535,12 @@ def main(argv: list[str] | None = None) -> int:
     rows = run(args.max_n, args.repeat)
     stages = ["conformal", "intervals", "disk", "push_forward", "thin", "verify"]
     head = f"{'n':>5} {'total s':>8} " + " ".join(f"{s[:8]:>8}" for s in stages)
-    print(head + f" {'quads':>9} {'quads/n':>8} {'angles':>16} {'n_used':>6}")
+    print(head + f" {'quads':>9} {'quads/n':>8} {'angles':>16} {'n_used':>6} {'min edge/lfs':>12}")
     for r in rows:
         st = " ".join(f"{r.get('t_' + s, 0.0):8.2f}" for s in stages)
         print(
             f"{r['n']:5d} {r['total']:8.2f} {st} {r['quads']:9d} {r['quads'] / r['n']:8.0f} "
-            f"[{r['min']:6.2f},{r['max']:6.2f}] {r['n_used']:6d}"
+            f"[{r['min']:6.2f},{r['max']:6.2f}] {r['n_used']:6d} {r['min_edge_lfs']:12.3g}"
         )
     if len(rows) >= 3:
         ns = [r["n"] for r in rows[1:]]

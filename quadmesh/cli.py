@@ -5,7 +5,9 @@ Subcommands (``quadmesh <command> --help`` for details):
 * ``mesh POLYGON -o MESH``: run Bishop's construction (:func:`quadmesh.pipeline.mesh_polygon`)
   and write the verified mesh;
 * ``check MESH --polygon POLYGON``: verify a mesh file against a polygon
-  (:meth:`quadmesh.mesh.QuadMesh.verify`);
+  (:meth:`quadmesh.mesh.QuadMesh.verify`) and print its report, including the edge lengths
+  against the polygon's local feature size (smallest ratio and where, median, shares of
+  edges below 1/1000 and 1/50; measured, never a reason to refuse);
 * ``info POLYGON``: vertex count, area and angle summary of a polygon file;
 * ``disk-demo -o disk.png``: picture of the disk construction (Lemma 2.2).
 """
@@ -74,12 +76,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="split every quad into a k × k bilinear grid (k ≥ 1; not for polygons with "
         "corners below 60°)",
     )
-    p.add_argument("--stats", action="store_true", help="print the quality report and timings")
+    p.add_argument(
+        "--stats",
+        action="store_true",
+        help="print the quality report (angles, edge length / local feature size) and timings",
+    )
     p.add_argument("--png", type=Path, help="also render the mesh into this PNG")
     p.add_argument("-v", "--verbose", action="store_true", help="print progress to stderr")
     p.set_defaults(func=_cmd_mesh)
 
-    p = _add_command(sub, "check", "verify a mesh file against a polygon")
+    p = _add_command(
+        sub, "check", "verify a mesh file against a polygon; report angles and edge sizes"
+    )
     p.add_argument("mesh", type=Path, help="mesh file")
     p.add_argument("--polygon", type=Path, required=True, help="polygon file")
     p.add_argument(

@@ -17,6 +17,11 @@ paper promises (Bishop, "Optimal angle bounds for quadrilateral meshes", Theorem
   single quad); Theorem 1.1 keeps original angles below 60° as they are, so those are exempt.
   A corner split between several quads consists of new angles only.
 
+Besides, it measures (and reports, without refusing anything for it) how small the elements
+are against the polygon: every edge's length over the polygon's local feature size at its
+midpoint (:func:`local_feature_size`), with the smallest ratio, where it is, the median and
+the share of edges below 1/1000 (:data:`SIZE_FLOOR`) and 1/50 (:data:`SIZE_WARN`).
+
 Angles, orientation and convexity are computed per quad relative to the quad's own first
 vertex, in float64, from the stored coordinates, with fixed tolerances: the verdict is about
 the numbers a reader of the mesh gets, whatever the quad's size or its distance from (0, 0).
@@ -41,10 +46,13 @@ from .progress import checkpoint
 __all__ = [
     "ANGLE_TOL_DEG",
     "COINCIDENT_RTOL",
+    "SIZE_FLOOR",
+    "SIZE_WARN",
     "QuadMesh",
     "QualityReport",
     "VerificationReport",
     "finalize_mesh",
+    "local_feature_size",
     "local_quad_angles_deg",
 ]
 
@@ -92,6 +100,112 @@ def local_quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return np.degrees(ang, out=ang)
 
 
+#: Size floor of the guarantee's size measurement: an edge shorter than this fraction of the
+#: local feature size at its midpoint (:func:`local_feature_size`) is counted in
+#: :attr:`QualityReport.share_edge_lfs_below_floor`. A measurement only: :meth:`QuadMesh.verify`
+#: does not refuse a mesh for it.
+SIZE_FLOOR = 1e-3
+
+#: Second, looser size threshold reported alongside :data:`SIZE_FLOOR` (edges below 1/50 of
+#: their local feature size).
+SIZE_WARN = 1.0 / 50.0
+
+
+def _segment_distance(x: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """Distance from complex points ``x`` to the segments [p0, p1] (elementwise)."""
+    d = p1 - p0
+    dd = (d * np.conj(d)).real
+    w = x - p0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(dd > 0, (w * np.conj(d)).real / dd, 0.0)
+    return np.abs(w - np.clip(t, 0.0, 1.0) * d)
+
+
+def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
+    """Local feature size of ``polygon`` at each of ``points`` (complex, or (N, 2) reals).
+
+    The features of the polygon are its corners and its sides. Two features are *incident*
+    when one contains the other (a corner and a side ending there) or they share a corner
+    (consecutive sides); a feature is incident to itself. ``lfs(x)`` is the radius of the
+    smallest closed disk centred at ``x`` that meets two non-incident features (Ruppert's
+    local feature size of the polygon's boundary): at a point near a side it is about the
+    distance to the nearest other part of the boundary that does not touch that side, in a
+    corridor it is about the width, and near a corner it is at most the shorter of the two
+    sides there (two distinct corners are never incident). It is positive at every point of
+    the closed polygon, including its corners and sides, and 1-Lipschitz.
+
+    Computed exactly (up to float64 rounding of the distances): a disk that meets no
+    non-incident pair meets at most one corner and two sides, so only the three nearest
+    corners (:class:`scipy.spatial.cKDTree`) and the three nearest sides matter; lfs is at
+    most the distance to the second-nearest corner, so the sides are the three nearest of
+    those within that distance (one :class:`shapely.STRtree` ``dwithin`` query). Vectorised:
+    about a second per 300 000 points on one core.
+
+    Args:
+        polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
+        points: query points.
+
+    Returns:
+        (N,) float64 array of local feature sizes.
+    """
+    import shapely
+    from scipy.spatial import cKDTree
+
+    poly = polygon if isinstance(polygon, Polygon) else validate_polygon(polygon)
+    pts = np.asarray(points)
+    if np.iscomplexobj(pts):
+        x = pts.astype(np.complex128).ravel()
+    else:
+        pts = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
+        x = pts[:, 0] + 1j * pts[:, 1]
+    m = x.size
+    if m == 0:
+        return np.zeros(0)
+    pz = poly.z
+    n = poly.n
+    p1 = np.roll(pz, -1)
+
+    # corners: the three nearest; two distinct corners are never incident, so the
+    # second-nearest corner distance r bounds lfs from above: only features within r matter
+    dv, iv = cKDTree(poly.vertices).query(np.column_stack([x.real, x.imag]), k=min(3, n))
+    r = dv[:, 1]
+    sides = shapely.linestrings(np.stack([poly.vertices, np.roll(poly.vertices, -1, axis=0)], 1))
+    ii, jj = shapely.STRtree(sides).query(
+        shapely.points(x.real, x.imag), predicate="dwithin", distance=r
+    )
+    dist = _segment_distance(x[ii], pz[jj], p1[jj])
+    order = np.lexsort((dist, ii))
+    ii, jj, dist = ii[order], jj[order], dist[order]
+    rank = np.arange(ii.size) - np.searchsorted(ii, np.arange(m))[ii]
+    top = rank < 3
+    sid = np.full((m, 3), -1, dtype=np.int64)  # the three nearest sides (-1: none within r)
+    sd = np.full((m, 3), np.inf)
+    sid[ii[top], rank[top]] = jj[top]
+    sd[ii[top], rank[top]] = dist[top]
+    ok = sid >= 0
+
+    def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        k = (a - b) % n
+        return (k == 0) | (k == 1) | (k == n - 1)
+
+    # the nearest side s1 lies within r (the sides at the nearest corner do)
+    s1 = np.where(ok[:, 0], sid[:, 0], iv[:, 0])
+    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
+    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
+    out = np.minimum(r, np.where(ends1, np.inf, dv).min(axis=1))
+    # side-side pairs: the best is among the three nearest sides
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
+        out = np.where(pair, np.minimum(out, sd[:, b]), out)
+    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
+    # three nearest sides; other corner-side pairs are dominated by the ones above
+    for e in (s1, (s1 + 1) % n):
+        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
+        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
+        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class QualityReport:
     """Angle and size statistics of a :class:`QuadMesh`.
@@ -110,6 +224,23 @@ class QualityReport:
         worst_quads: indices of the (up to 10) quads whose new angles are farthest from 90°.
         worst_angles: their four corner angles in degrees, shape (k, 4).
         min_area, max_area: extreme quad areas.
+
+    Size against the polygon's local feature size (:func:`local_feature_size`), when the
+    report was made against a polygon (else None). For every mesh edge the ratio is its
+    length over the local feature size of the polygon at its midpoint: a ratio far below 1
+    is an element much smaller than any feature of the polygon there. Measured and reported
+    only; it does not decide whether a mesh is valid.
+
+        n_edges: number of distinct mesh edges measured.
+        min_edge_lfs: smallest edge length / local feature size ratio.
+        min_edge_lfs_at: (x, y) midpoint of that edge, in the polygon's coordinates (the mesh
+            origin added for a mesh stored relative to one).
+        min_edge_lfs_edge: its two mesh vertex indices.
+        min_edge_lfs_length, min_edge_lfs_size: its length and the local feature size there.
+        median_edge_lfs: median ratio over all edges.
+        share_below_floor: fraction of the edges whose ratio is below :data:`SIZE_FLOOR`
+            (1/1000).
+        share_below_warn: fraction of the edges whose ratio is below :data:`SIZE_WARN` (1/50).
     """
 
     n_quads: int
@@ -128,11 +259,28 @@ class QualityReport:
     worst_angles: np.ndarray
     min_area: float
     max_area: float
+    n_edges: int | None = None
+    min_edge_lfs: float | None = None
+    min_edge_lfs_at: tuple[float, float] | None = None
+    min_edge_lfs_edge: tuple[int, int] | None = None
+    min_edge_lfs_length: float | None = None
+    min_edge_lfs_size: float | None = None
+    median_edge_lfs: float | None = None
+    share_below_floor: float | None = None
+    share_below_warn: float | None = None
 
     @property
     def angles_ok(self) -> bool:
         """True when every new angle lies in [60°, 120°]."""
         return self.n_angles_outside == 0
+
+    @property
+    def size_floor_met(self) -> bool | None:
+        """True when every edge is at least :data:`SIZE_FLOOR` (1/1000) of the local feature
+        size at its midpoint; None when the sizes were not measured (no polygon)."""
+        if self.min_edge_lfs is None:
+            return None
+        return self.min_edge_lfs >= SIZE_FLOOR
 
     def as_dict(self) -> dict:
         """Plain-Python (JSON-ready) version of the report."""
@@ -153,10 +301,39 @@ class QualityReport:
             "worst_angles": self.worst_angles.tolist(),
             "min_area": self.min_area,
             "max_area": self.max_area,
+            "n_edges": self.n_edges,
+            "min_edge_lfs": self.min_edge_lfs,
+            "min_edge_lfs_at": None if self.min_edge_lfs_at is None else list(self.min_edge_lfs_at),
+            "min_edge_lfs_edge": (
+                None if self.min_edge_lfs_edge is None else list(self.min_edge_lfs_edge)
+            ),
+            "min_edge_lfs_length": self.min_edge_lfs_length,
+            "min_edge_lfs_size": self.min_edge_lfs_size,
+            "median_edge_lfs": self.median_edge_lfs,
+            "share_below_floor": self.share_below_floor,
+            "share_below_warn": self.share_below_warn,
         }
 
+    def size_lines(self) -> list[str]:
+        """Readable lines on edge length / local feature size (empty when not measured)."""
+        if self.min_edge_lfs is None or self.min_edge_lfs_at is None:
+            return []
+        x, y = self.min_edge_lfs_at
+        at = _fmt_pt(complex(x, y))
+        verdict = "met" if self.size_floor_met else "NOT met"
+        return [
+            f"edge / local feature size: min {self.min_edge_lfs:.3g} at {at} (edge "
+            f"{self.min_edge_lfs_edge[0]}–{self.min_edge_lfs_edge[1]}, length "
+            f"{self.min_edge_lfs_length:.3g}, local feature size {self.min_edge_lfs_size:.3g}); "
+            f"median {self.median_edge_lfs:.3g}",
+            f"  edges below 1/1000 of the local feature size: "
+            f"{100 * self.share_below_floor:.3g} % of {self.n_edges} (size floor {verdict}); "
+            f"below 1/50: {100 * self.share_below_warn:.3g} %",
+        ]
+
     def summary(self) -> str:
-        """A few readable lines: counts, angle range, histogram of the occupied bins."""
+        """A few readable lines: counts, angle range, sizes against the polygon's local
+        feature size, histogram of the occupied bins."""
         lines = [f"quads: {self.n_quads}   vertices: {self.n_vertices}"]
         if self.n_polygon_vertices is not None:
             lines[0] += (
@@ -173,6 +350,7 @@ class QualityReport:
                 f"(smallest {self.min_original_angle:.4f}°)"
             )
         lines.append(f"quad areas: min {self.min_area:.4g}  max {self.max_area:.4g}")
+        lines += self.size_lines()
         occupied = np.flatnonzero(self.histogram)
         if occupied.size:
             peak = int(self.histogram.max())
@@ -363,7 +541,8 @@ class QuadMesh:
     def quality(
         self, polygon: object | None = None, *, angle_tol: float = ANGLE_TOL_DEG
     ) -> QualityReport:
-        """Angle statistics of the mesh (new angles only; see the module docstring).
+        """Angle statistics of the mesh (new angles only; see the module docstring) and, with
+        ``polygon``, edge sizes against its local feature size.
 
         Without ``polygon`` an unsplit polygon corner is recognised as a vertex that lies in a
         single quad; with it, the vertex must also be one of the polygon's corners.
@@ -372,6 +551,53 @@ class QuadMesh:
         corners = None if poly is None else self._match_corners(poly)[0]
         return self._quality(self.angles(), self.areas(), poly, corners, angle_tol)
 
+    def edge_lfs_ratios(
+        self, polygon: object, ukeys: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Length of every distinct edge over the polygon's local feature size at its midpoint.
+
+        The mesh and ``polygon`` must be in the same frame (for a mesh stored relative to an
+        origin, pass the polygon translated by −origin). ``ukeys`` are optional undirected
+        edge keys ``a * V + b`` (a < b), as :meth:`verify` computes them.
+
+        Returns:
+            ``(edges, length, lfs)``: (E, 2) vertex indices, edge lengths and the local
+            feature sizes (:func:`local_feature_size`) at the midpoints.
+        """
+        poly = polygon if isinstance(polygon, Polygon) else validate_polygon(polygon)
+        nv = self.n_vertices
+        if ukeys is None:
+            a = self.quads.ravel()
+            b = self.quads[:, _NEXT].ravel()
+            ukeys = np.unique(np.minimum(a, b) * nv + np.maximum(a, b))
+        edges = np.column_stack([ukeys // nv, ukeys % nv])
+        za, zb = self._z[edges[:, 0]], self._z[edges[:, 1]]
+        d = zb - za
+        return edges, np.abs(d), local_feature_size(poly, za + 0.5 * d)
+
+    def _size_fields(self, poly: Polygon | None, origin: complex, ukeys: np.ndarray | None) -> dict:
+        """The edge / local feature size fields of :class:`QualityReport` (empty when there
+        is no polygon, no quad, or a non-finite coordinate)."""
+        if poly is None or self.n_quads == 0 or not np.all(np.isfinite(self.vertices)):
+            return {}
+        edges, length, lfs = self.edge_lfs_ratios(poly, ukeys)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = length / lfs
+        k = int(np.argmin(ratio))
+        a, b = int(edges[k, 0]), int(edges[k, 1])
+        mid = self._z[a] + 0.5 * (self._z[b] - self._z[a]) + origin
+        return {
+            "n_edges": int(ratio.size),
+            "min_edge_lfs": float(ratio[k]),
+            "min_edge_lfs_at": (float(mid.real), float(mid.imag)),
+            "min_edge_lfs_edge": (a, b),
+            "min_edge_lfs_length": float(length[k]),
+            "min_edge_lfs_size": float(lfs[k]),
+            "median_edge_lfs": float(np.median(ratio)),
+            "share_below_floor": float(np.count_nonzero(ratio < SIZE_FLOOR) / ratio.size),
+            "share_below_warn": float(np.count_nonzero(ratio < SIZE_WARN) / ratio.size),
+        }
+
     def _quality(
         self,
         ang: np.ndarray,
@@ -379,6 +605,8 @@ class QuadMesh:
         poly: Polygon | None,
         corners: np.ndarray | None,
         angle_tol: float,
+        origin: complex = 0j,
+        ukeys: np.ndarray | None = None,
     ) -> QualityReport:
         exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
@@ -413,6 +641,7 @@ class QuadMesh:
             worst_angles=ang[worst],
             min_area=float(areas.min()) if areas.size else float("nan"),
             max_area=float(areas.max()) if areas.size else float("nan"),
+            **self._size_fields(poly, origin, ukeys),
         )
 
     # ------------------------------------------------------------------ verification
@@ -681,6 +910,8 @@ class QuadMesh:
             angle_tol,
             ang,
             areas,
+            origin,
+            ukeys,
         )
 
     def _coincident(self, r: float, origin: complex = 0j) -> list[str]:
@@ -713,6 +944,8 @@ class QuadMesh:
         angle_tol: float,
         ang: np.ndarray | None = None,
         areas: np.ndarray | None = None,
+        origin: complex = 0j,
+        ukeys: np.ndarray | None = None,
     ) -> VerificationReport:
         if ang is None:
             with np.errstate(invalid="ignore"):
@@ -722,7 +955,7 @@ class QuadMesh:
             ok=not problems,
             problems=tuple(problems),
             warnings=tuple(warnings),
-            quality=self._quality(ang, areas, poly, corner_v, angle_tol),
+            quality=self._quality(ang, areas, poly, corner_v, angle_tol, origin, ukeys),
             n_interior_edges=n_interior,
             n_boundary_edges=n_boundary,
             area_error=area_err,
