@@ -484,7 +484,7 @@ def ladder_layout(
                     if C.theta[ap] - th < 2 * lo_ang:
                         continue
                     try:
-                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1))[4]
+                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1), MIN_ROWS)[4]
                     except ThinPartError:
                         continue
                     if a_.min() < lo_ang or a_.max() > 120.0 - margin:
@@ -497,13 +497,26 @@ def ladder_layout(
     S = np.concatenate([x[0] for x in arcs])
     D = np.concatenate([x[1] for x in arcs])
     W = np.concatenate([x[2] for x in arcs])
+    # two sectors may not share a rung (each fixes its points): a rung reached through a sector
+    # is a separate node (nr + 2 + r) from which every arc but a sector leaves
+    sec = np.zeros(S.size, dtype=bool)
+    if sector_gamma:
+        skey = np.array([a * (nr + 2) + b for a, b in sector_gamma], dtype=np.int64)
+        sec = np.isin(S.astype(np.int64) * (nr + 2) + D, skey)
+    copy = nr + 2
+    plain = ~sec & (S < nr)  # arcs out of a rung (not out of the source)
+    S = np.concatenate([S, S[plain] + copy])
+    D = np.concatenate([np.where(sec, D + copy, D), D[plain]])
+    W = np.concatenate([W, W[plain]])
+    n_nodes = 2 * nr + 2
     # one arc per (from, to): the cheapest (a sparse matrix would add duplicates up)
-    key = S.astype(np.int64) * (nr + 2) + D
+    key = S.astype(np.int64) * n_nodes + D
     order_ = np.lexsort((W, key))
     first_ = np.r_[True, key[order_][1:] != key[order_][:-1]]
     S, D, W = S[order_][first_], D[order_][first_], W[order_][first_]
-    g = coo_matrix((W, (S, D)), shape=(nr + 2, nr + 2)).tocsr()
-    dist, pred = dijkstra(g, indices=nr, return_predecessors=True)
+    g = coo_matrix((W, (S, D)), shape=(n_nodes, n_nodes)).tocsr()
+    dist_all, pred = dijkstra(g, indices=nr, return_predecessors=True)
+    dist = np.minimum(dist_all[: nr + 2], np.r_[dist_all[copy:], np.inf, np.inf])
     if debug is not None:
         debug.update(L=L, R=R, pa=pa, pb=pb, dist=dist, S=S, D=D)
     if not np.isfinite(dist[nr + 1]):
@@ -519,7 +532,7 @@ def ladder_layout(
     path = []
     k = pred[nr + 1]
     while k != nr:
-        path.append(int(k))
+        path.append(int(k) - copy if k >= copy else int(k))
         k = pred[k]
     path = path[::-1]
 
@@ -657,7 +670,7 @@ def _round_cap_cost(pts: np.ndarray) -> float | None:
         return None
     # the connection quads between the sector's core and the cap's points
     try:
-        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1))[4]
+        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1), MIN_ROWS)[4]
     except ThinPartError:
         return None
     if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
@@ -715,7 +728,7 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
     built = []
     if structs:
         n_pts = _sector_points(max(len(g) - 1 for _, g, _ in structs))
-        base = [_sector_mesh(o, V[g], n_pts, 0, g) for o, g, _ in structs]
+        base = [_sector_mesh(o, V[g], n_pts, MIN_ROWS, g) for o, g, _ in structs]
         # every fixed rung carries the same number of points: pad with connection rows
         counts = []
         for (_o, _g, kind), m in zip(structs, base):
@@ -728,7 +741,7 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         if caps_n and (target - caps_n[0]) % 2:
             target += 1
         for (o, g, kind), c in zip(structs, counts):
-            rings = (target - c) // 2 if kind == "cap" else target - c
+            rings = MIN_ROWS + ((target - c) // 2 if kind == "cap" else target - c)
             m = _sector_mesh(o, V[g], n_pts, rings, g)
             a_ = m[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
@@ -965,6 +978,8 @@ def _refine_ladder(
 
 #: Radius of the Mesh 1 / Mesh 2 core of a sector (round end or bend), relative to its sides.
 CAP_CORE = 0.25
+#: Rows of connection quads between a sector's core and its crosscut, at least.
+MIN_ROWS = 0
 
 
 @functools.lru_cache(maxsize=64)
