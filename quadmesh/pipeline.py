@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import ConformalMapError, DiskConstructionError, ThinPartError
+from .errors import Cancelled, ConformalMapError, DiskConstructionError, ThinPartError
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
 from .progress import Run, running
@@ -151,23 +151,33 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
     t0 = time.perf_counter()
     corridor, corridor_why = whole_corridor(dec)
     timings["corridor"] = time.perf_counter() - t0
+    armed = None
+    if corridor is None and corridor_why:
+        # not a corridor as a whole: an arm (a corridor from one tip) and the body behind it
+        armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
     if corridor is not None:
         asm = Assembler()
         gl = asm.add_vertices(corridor.vertices)
         asm.add_quads(gl[corridor.quads], source=3)
         pieces, thin = [], [ThinPartResult("corridor", 0, corridor, gl)]
         dec = replace(dec, thick=(), corners=())
+    elif armed is not None:
+        asm, pieces, thin, dec = armed
     else:
         try:
             asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings)
         except (ConformalMapError, DiskConstructionError) as exc:
-            if corridor_why:
+            if not corridor_why:  # several pieces, one of them too crowded: try an arm
+                armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
+            if armed is None and corridor_why:
                 raise type(exc)(
                     f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
                     f"{corridor_why}. A wider passage or longer straight walls there would help "
                     "both ways"
                 ) from exc
-            raise
+            if armed is None:
+                raise
+            asm, pieces, thin, dec = armed
 
     report("verify", 0.9, 1.0)
     t0 = time.perf_counter()
@@ -287,3 +297,53 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
         timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
         break
     return asm, pieces, thin
+
+
+def _mesh_arm_and_body(dec, options: MeshOptions, cancel: CancelCallback | None):
+    """An arm of the polygon meshed as a corridor (:func:`~quadmesh.thin.corridor.arm_and_body`)
+    and the body behind it meshed by :func:`mesh_polygon` (recursively: the body may have arms
+    again), glued along the cut by index: the arm's last rung takes the body mesh's points on
+    it. Returns (assembler, thick-piece results, thin-part results, the body's decomposition),
+    or None when there is no arm or either part cannot be meshed."""
+    from .errors import QuadmeshError
+    from .thin.corridor import arm_and_body, mesh_arm
+
+    split = arm_and_body(dec.polygon.z)
+    if split is None:
+        return None
+    lay, body = split
+    try:
+        inner = mesh_polygon(np.column_stack([body.real, body.imag]), options, cancel=cancel)
+    except Cancelled:
+        raise
+    except QuadmeshError:
+        return None
+    if inner.mesh_origin or inner.origin:
+        return None
+    bz = inner.mesh.z
+    try:
+        arm = mesh_arm(lay, dec.polygon.z, bz)
+    except ThinPartError:
+        return None
+    asm = Assembler()
+    gl_body = asm.add_vertices(bz)
+    src = np.zeros(len(inner.mesh.quads), dtype=np.int64)
+    if inner.quad_source is not None:
+        src = np.asarray(inner.quad_source, dtype=np.int64)
+    for k in np.unique(src):
+        asm.add_quads(gl_body[inner.mesh.quads[src == k]], source=int(k))
+    # the cut: the body's points on it, from the arm's L end to its R end
+    a, b = (int(x) for x in lay.rungs[-1])
+    za, zb = lay.vertices[a], lay.vertices[b]
+    t = (bz - za) / (zb - za)
+    on = np.flatnonzero((np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12))
+    ends = [np.flatnonzero(bz == za), np.flatnonzero(bz == zb)]
+    if ends[0].size != 1 or ends[1].size != 1 or on.size != arm.cut.size - 2:
+        return None
+    gl = np.full(arm.vertices.size, -1, dtype=np.int64)
+    gl[arm.cut] = np.r_[ends[0], on[np.argsort(t.real[on])], ends[1]]
+    own = gl < 0
+    gl[own] = asm.add_vertices(arm.vertices[own])
+    asm.add_quads(gl[arm.quads], source=3)
+    thin = [*inner.thin, ThinPartResult("corridor", len(inner.thin), arm, gl)]
+    return asm, list(inner.pieces), thin, inner.decomposition

@@ -156,3 +156,32 @@ def test_bends_are_vertex_sectors(turn, quad_segs):
     v = np.column_stack([cm.vertices.real, cm.vertices.imag])
     lo, hi = independent_check(validate_polygon(poly).vertices, v, cm.quads, tol=1e-7)
     assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
+
+
+def _tadpole(length: float) -> np.ndarray:
+    """A disk (the head) with a long thin wavy tail: no corridor as a whole, and too crowded
+    for one disk map (the tail is 20–40 widths long)."""
+    t = np.linspace(0, 1, 80)
+    c = np.column_stack([0.5 + length * t, 0.8 * np.sin(3 * np.pi * t)])
+    tail = shapely.LineString(c).buffer(0.15, cap_style="flat", join_style="round")
+    head = shapely.Point(0, 0).buffer(1.0, quad_segs=8)
+    g = shapely.geometry.polygon.orient(shapely.union_all([head, tail]).simplify(0.005), 1.0)
+    return np.asarray(g.exterior.coords)[:-1]
+
+
+@pytest.mark.parametrize("length", [6.0, 12.0])
+def test_an_arm_is_a_corridor_glued_to_the_body(length):
+    """The tail is an arm: a ladder from its tip up to a rung short of the head; the head (with
+    a stub of the tail) is meshed by the disk construction; the arm's last rung takes the head
+    mesh's points on that cut, so the two share them by index."""
+    poly = _tadpole(length)
+    r = mesh_polygon(poly)
+    kinds = [t.kind for t in r.thin]
+    assert kinds.count("corridor") == 1 and len(r.pieces) >= 1
+    arm = next(t for t in r.thin if t.kind == "corridor")
+    assert arm.mesh.layout.open_end
+    independent_check(validate_polygon(poly).vertices, r.mesh.vertices, r.mesh.quads, tol=1e-5)
+    # the cut's points belong to both parts: arm quads and body quads meet there
+    cut_ids = arm.global_index[arm.mesh.cut]
+    body_quads = r.mesh.quads[np.asarray(r.quad_source) != 3]
+    assert np.isin(cut_ids, body_quads).all()

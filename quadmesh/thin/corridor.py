@@ -72,6 +72,8 @@ class CorridorLayout:
         sectors: per bend, (apex, γ): two rungs from the apex (a wall vertex) with a stretch
             of the other wall between them, meshed as a vertex sector about the apex; γ runs
             from the far end of one rung along the other wall to the far end of the other.
+        open_end: True for an *arm* (``partial=True``): the ladder stops at its last rung,
+            where the rest of the polygon (the body) begins.
     """
 
     vertices: np.ndarray
@@ -83,6 +85,7 @@ class CorridorLayout:
     round_caps: tuple[tuple[int, ...], ...] = ()
     cell_rungs: np.ndarray | None = None
     sectors: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    open_end: bool = False
 
 
 def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -173,6 +176,7 @@ def ladder_layout(
     samples_per_width: float = 4.0,
     margin: float = CELL_MARGIN,
     debug: dict | None = None,
+    partial: bool = False,
 ) -> CorridorLayout:
     """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
     its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
@@ -519,7 +523,25 @@ def ladder_layout(
     dist = np.minimum(dist_all[: nr + 2], np.r_[dist_all[copy:], np.inf, np.inf])
     if debug is not None:
         debug.update(L=L, R=R, pa=pa, pb=pb, dist=dist, S=S, D=D)
-    if not np.isfinite(dist[nr + 1]):
+    open_end = False
+    if not np.isfinite(dist[nr + 1]) and partial:
+        # an arm: the ladder from the start tip as far as it goes, cut one and a half widths
+        # before it gets stuck (at a rung not fixed by a sector); the rest is the body
+        reached = np.flatnonzero(np.isfinite(dist_all[:nr]))
+        if reached.size:
+            sig = L.sigma[pa[reached]] + R.sigma[pb[reached]]
+            wmed_ = float(np.median(np.r_[L.width, R.width]))
+            ok_ = sig <= sig.max() - 3.0 * wmed_
+            if ok_.any():
+                cut = int(reached[ok_][np.argmax(sig[ok_])])
+                path = []
+                k = cut
+                while k != nr:
+                    path.append(int(k) - copy if k >= copy else int(k))
+                    k = pred[k]
+                path = path[::-1]
+                open_end = True
+    if not open_end and not np.isfinite(dist[nr + 1]):
         reached = np.flatnonzero(np.isfinite(dist[:nr]))
         if reached.size:
             far = reached[np.argmax(L.sigma[pa[reached]] + R.sigma[pb[reached]])]
@@ -529,12 +551,13 @@ def ladder_layout(
         raise ThinPartError(
             f"no layout of straight cells with corners in [60°, 120°] continues {where}"
         )
-    path = []
-    k = pred[nr + 1]
-    while k != nr:
-        path.append(int(k) - copy if k >= copy else int(k))
-        k = pred[k]
-    path = path[::-1]
+    if not open_end:
+        path = []
+        k = pred[nr + 1]
+        while k != nr:
+            path.append(int(k) - copy if k >= copy else int(k))
+            k = pred[k]
+        path = path[::-1]
 
     # --- the cells of the path ---------------------------------------------------------------
     cells: list[list[int]] = []
@@ -572,7 +595,11 @@ def ladder_layout(
     la_, lb_ = pa[path[-1]], pb[path[-1]]
     ring = [gl(L, la_)] + [int(v) for v in L.gid[la_ + 1 :][L.is_vertex[la_ + 1 :]]] + [e]
     ring += [*[int(v) for v in R.gid[lb_ + 1 :][R.is_vertex[lb_ + 1 :]]][::-1], gl(R, lb_)]
-    if len(ring) == 4 and ((1, path[-1]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)):
+    if open_end:
+        pass  # the last rung is where the arm meets the body
+    elif len(ring) == 4 and (
+        (1, path[-1]) not in round_gamma or _quad_cap_ok(coarse[ring], margin)
+    ):
         cells.append(ring)
         kind.append("cap")
         cell_rungs.append((len(path) - 1, -1))
@@ -600,6 +627,7 @@ def ladder_layout(
         round_caps=tuple(tuple(int(remap[i]) for i in g) for g in rounds),
         cell_rungs=np.asarray(cell_rungs, dtype=np.int64).reshape(-1, 2),
         sectors=tuple((int(remap[a]), tuple(int(remap[i]) for i in g)) for a, g in sectors),
+        open_end=open_end,
     )
 
 
@@ -705,7 +733,14 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         ThinPartError: no ladder layout exists.
     """
     z = np.asarray(z, dtype=np.complex128)
-    lay = ladder_layout(z)
+    return _mesh_layout(ladder_layout(z), z, across, {})
+
+
+def _mesh_layout(
+    lay: CorridorLayout, z: np.ndarray, across: int, extra_fixed: dict[int, np.ndarray]
+) -> CorridorMesh:
+    """Refine a ladder layout of the polygon ``z`` (sectors built, rungs' points fixed by
+    them and by ``extra_fixed``, runs refined and glued) into a :class:`CorridorMesh`."""
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
     tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
@@ -736,7 +771,7 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
             if kind == "bend" and n1 != n2:
                 raise ThinPartError("a bend of the corridor has sides of unequal refinement")
             counts.append(n1 + n2 - 1 if kind == "cap" else n1)
-        target = max(counts)
+        target = max([*counts, *(p.size for p in extra_fixed.values())])
         caps_n = [c for c, (_, _, k) in zip(counts, structs) if k == "cap"]
         if caps_n and (target - caps_n[0]) % 2:
             target += 1
@@ -770,6 +805,10 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
                     fixed[k] = par
                     entries.append((k, u, v, side))
                 built.append((m, entries))
+    for k, par in extra_fixed.items():
+        if k in fixed:
+            raise ThinPartError("a sector of the corridor sits where it meets the rest")
+        fixed[k] = par
     pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()))
     for k_s, (m, entries) in enumerate(built):
         gp, gamma_ids, allp, sq, _a, _s1, _s2 = m
@@ -798,7 +837,7 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         quads = np.concatenate([quads, gl[sq]])
         cell = np.concatenate([cell, np.full(len(sq), -2 - k_s)])
     _check_ladder_angles(pts, quads, z)
-    return CorridorMesh(pts, quads, cell, lay)
+    return CorridorMesh(pts, quads, cell, lay, rung_ids[-1] if lay.open_end else None)
 
 
 def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) -> list[np.ndarray]:
@@ -1096,6 +1135,64 @@ def _side_params(pts: np.ndarray, side: np.ndarray, u: complex, v: complex) -> n
     return t
 
 
+def arm_and_body(z: np.ndarray) -> tuple[CorridorLayout, np.ndarray] | None:
+    """Split a polygon that is no corridor as a whole into an *arm* — the stretch from one tip
+    that a ladder of straight cells reaches, cut by a rung one and a half widths before the
+    ladder gets stuck — and the *body*, the rest (counter-clockwise, the cut as one of its
+    edges). None when the whole polygon is a corridor or no arm exists."""
+    z = np.asarray(z, dtype=np.complex128)
+    s, e = corridor_tips(z)
+    lay = None
+    for tips in ((s, e), (e, s)):  # from either tip
+        try:
+            lay = ladder_layout(z, tips, partial=True)
+        except ThinPartError:
+            continue
+        if not lay.open_end:
+            return None  # the whole polygon is a corridor
+        break
+    if lay is None:
+        return None
+    n = z.size
+    a, b = (int(x) for x in lay.rungs[-1])
+
+    def edge(c: int) -> tuple[int, bool]:  # (index, is a polygon vertex)
+        return (c, True) if c < n else (int(lay.edge_of[c]), False)
+
+    ia, _ = edge(a)
+    ib, b_vertex = edge(b)
+    pts = [lay.vertices[a]]
+    k = (ia + 1) % n
+    for _ in range(n + 1):
+        pts.append(z[k])
+        if k == ib:
+            break
+        k = (k + 1) % n
+    if not b_vertex:
+        pts.append(lay.vertices[b])
+    body = np.asarray(pts, dtype=np.complex128)
+    return lay, body
+
+
+def mesh_arm(
+    lay: CorridorLayout, z: np.ndarray, body_points: np.ndarray, *, across: int = 4
+) -> CorridorMesh:
+    """Mesh an arm (:func:`arm_and_body`) whose last rung carries the body mesh's points on
+    the cut (``body_points``: every body mesh vertex; those on the cut are found by position),
+    so the two meshes share that rung's points. Unused polygon vertices are dropped: the mesh
+    holds the arm only."""
+    a, b = (int(x) for x in lay.rungs[-1])
+    za, zb = lay.vertices[a], lay.vertices[b]
+    t = (np.asarray(body_points) - za) / (zb - za)
+    on = (np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)
+    par = _param_list(np.sort(t.real[on]))
+    cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par})
+    used = np.unique(cm.quads)
+    remap = np.full(cm.vertices.size, -1, dtype=np.int64)
+    remap[used] = np.arange(used.size)
+    return CorridorMesh(cm.vertices[used], remap[cm.quads], cm.cell, lay, remap[cm.cut])
+
+
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
 #: meshed as a corridor when it can be: well above the ~5e-15 the disk construction resolves
 #: in extended precision, so that no conformal map is asked to work near its limit.
@@ -1106,12 +1203,14 @@ CORRIDOR_GAP = 1e-10
 class CorridorMesh:
     """The mesh of a corridor: ``vertices`` (complex; the first ``n`` are the polygon's),
     counter-clockwise ``quads``, per quad the ``cell`` of the layout it refines, and the
-    ``layout`` itself (cells, rungs, tips)."""
+    ``layout`` itself (cells, rungs, tips). For an arm (``layout.open_end``), ``cut`` holds the
+    indices of its points on the rung where it meets the body, from the L wall to the R wall."""
 
     vertices: np.ndarray
     quads: np.ndarray
     cell: np.ndarray
     layout: CorridorLayout
+    cut: np.ndarray | None = None
 
     @property
     def kind(self) -> np.ndarray:
