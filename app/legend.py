@@ -69,8 +69,11 @@ class LegendPanel(QGroupBox):
         """Show these ``(layer, label, colour)`` entries."""
         while self._grid.count():
             item = self._grid.takeAt(0)
-            if item.widget() is not None:
-                item.widget().deleteLater()
+            w = item.widget()
+            if w is not None:  # gone at once (deleteLater alone leaves it drawn until idle)
+                w.hide()
+                w.setParent(None)
+                w.deleteLater()
         self.entries = list(entries)
         for row, (layer, label, color) in enumerate(self.entries):
             sw = QLabel()

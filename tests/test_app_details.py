@@ -130,6 +130,7 @@ def test_mesh_panel_tooltips_legend_and_shortcut_help(meshed, qtbot):
     from PySide6.QtWidgets import (
         QAbstractSpinBox,
         QCheckBox,
+        QLabel,
         QLineEdit,
         QTableWidget,
     )
@@ -166,9 +167,14 @@ def test_mesh_panel_tooltips_legend_and_shortcut_help(meshed, qtbot):
     assert [c for lay, _, c in win.legend.entries if lay == "thick_pieces"] == list(
         PIECE_PALETTE[: len(r.decomposition.thick)]
     )
-    # unticking the thin-parts layer removes its entries
+    # unticking the thin-parts layer removes its entries (and their widgets at once)
     press(qtbot, win.layer_panel.checkboxes["thin_parts"], QPoint(7, 8))
     assert win.legend.labels("thin_parts") == []
+
+    def shown() -> list[str]:
+        return sorted(w.text() for w in win.legend.findChildren(QLabel) if w.isVisible())
+
+    qtbot.waitUntil(lambda: [t for t in shown() if t] == sorted(win.legend.labels()))
 
     # Help menu, clicked
     mb = win.menuBar()
