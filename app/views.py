@@ -41,6 +41,7 @@ class _MouseFilter(QObject):
     def __init__(self, view: View2D) -> None:
         super().__init__(view.plotter)
         self._view = view
+        self._press_at: tuple[float, float] | None = None
 
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:
         et = event.type()
@@ -55,6 +56,17 @@ class _MouseFilter(QObject):
         ):
             v.fit_bounds = None  # the user takes over the camera
         if not v.capture_left:
+            # the left button pans; a press and release within a few pixels is a click
+            # (picking a quad), reported after VTK has seen both events
+            if et == QEvent.MouseMove:
+                v.mouse.emit("hover", v.to_world(event.position().x(), event.position().y()), 0)
+            elif et == QEvent.MouseButtonPress and event.button() == Qt.LeftButton:
+                self._press_at = (event.position().x(), event.position().y())
+            elif et == QEvent.MouseButtonRelease and event.button() == Qt.LeftButton:
+                x, y = event.position().x(), event.position().y()
+                start, self._press_at = self._press_at, None
+                if start is not None and abs(x - start[0]) + abs(y - start[1]) <= 4:
+                    v.mouse.emit("click", v.to_world(x, y), event.modifiers().value)
             return False
         if et in (QEvent.MouseButtonPress, QEvent.MouseButtonDblClick):
             if event.button() != Qt.LeftButton:
@@ -83,7 +95,9 @@ class View2D(QWidget):
 
     Signals:
         mouse(kind, world_point, modifiers): kind in {"press", "dblclick", "drag", "release",
-            "hover"}; world_point is complex.
+            "hover", "click"}; world_point is complex.  While the left button is captured it
+            gives press/dblclick/drag/release/hover; otherwise (the left button pans) "hover"
+            for every move and "click" for a press and release less than 5 pixels apart.
     """
 
     mouse = Signal(str, complex, int)

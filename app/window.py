@@ -23,6 +23,8 @@ from PySide6.QtGui import QAction, QDoubleValidator, QKeySequence, QTextDocument
 from PySide6.QtWidgets import (
     QAbstractButton,
     QCheckBox,
+    QDialog,
+    QDialogButtonBox,
     QDockWidget,
     QDoubleSpinBox,
     QFileDialog,
@@ -39,6 +41,8 @@ from PySide6.QtWidgets import (
     QSizePolicy,
     QSpinBox,
     QSplitter,
+    QTableWidget,
+    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
@@ -67,6 +71,7 @@ from quadmesh.result import MeshOptions
 from .drawing import PolygonEditor
 from .histogram import AngleHistogram
 from .layers import DEFAULT_VISIBLE, LayerPanel
+from .legend import THIN_KIND_TITLES, LegendPanel, legend_entries
 from .views import LayerState, View2D
 from .worker import JobRunner
 
@@ -89,7 +94,61 @@ _OPTION_SPECS: dict[str, tuple[str, str, float, float, float, int]] = {
 }
 
 
+#: Tooltip of every Mesh setting: what it does and what it costs in quads and time.
+OPTION_TIPS: dict[str, str] = {
+    "n": "Steps per half side of every pentagon in the disk construction (start value). "
+    "Larger n: straighter pushed-forward angles (closer to 90°) but about n² times more quads "
+    "per thick piece and a longer disk stage. 2 is the smallest value that keeps the disk "
+    "angles in [60°, 120°].",
+    "max_n": "Largest n the adaptive loop may raise a thick piece to when its quads leave "
+    "[60°, 120°]. Higher: more polygons succeed, at the cost of many more quads and time on "
+    "the hard ones; it never adds quads where n already works.",
+    "depth_step": "Spacing δ of the Carleson rows toward the boundary of the disk. Smaller: "
+    "more rows, so more quads (about 1/δ) and more time, with angles closer to 90° near the "
+    "polygon's sides. The adaptive loop halves it where a Carleson quad leaves the range.",
+    "inner_height": "Height h of the inner triangle of each Carleson triangle. Smaller: "
+    "deeper triangle landmarks, hence more rows (quads, time) near polygon vertices; larger: "
+    "fewer quads but flatter triangles.",
+    "crosscut_ratio": "Prevertex gap over half-width of the arc whose image cuts a vertex "
+    "sector off a thick piece. Larger: smaller, rounder sectors and more cover arcs (more "
+    "Carleson pieces and quads); smaller: fewer quads, less round crosscuts (the conformal "
+    "collar straightens them).",
+    "lemma_A": "Expansion factor A of Lemma 2.2 (any A > 1 is valid). Smaller A lets the arcs "
+    "around the prevertices grow closer together: fewer cover arcs, fewer quads and less "
+    "time; larger A separates them more.",
+    "channel_delta": "Extremal-distance threshold δ below which a narrow passage is cut off "
+    "as a channel (thin part meshed by a log-spiral connector). Larger: more passages become "
+    "channels (fewer crowded conformal maps, faster); smaller: more of the polygon is meshed "
+    "through the conformal map.",
+    "sector_ratio": "λ: radius of each vertex sector over the crosscut's distance from the "
+    "vertex. Smaller: tighter sectors with fewer quads around each vertex; larger: wider "
+    "sectors (more quads there).",
+    "rotations": "Normalisations of each thick piece's conformal map tried; the one with the "
+    "fewest cover arcs is used. More: often fewer quads (0 to −19 %), about 0.3 s per try "
+    "and piece. 1 turns it off.",
+    "conformal_tol": "Target residual of the Schwarz–Christoffel parameter problem "
+    "(1e-14 … 1e-4). Smaller: a more accurate map (angles closer to what the disk mesh "
+    "promises) and a slower conformal stage; does not change the quad count much.",
+    "adaptive": "When a thick piece's quads leave [60°, 120°], raise n (2 → 3 → 4 → 6, up "
+    "to max n) and lower the depth step, and mesh it again. Off: a failure is reported "
+    "instead (faster, fewer quads, may fail).",
+    "repair": "Before the adaptive loop changes n, move interior vertices near quads that "
+    "leave [60°, 120°] by a small fraction of their edges. Keeps the quad count; off: only "
+    "raising n (more quads, more time) fixes bad angles.",
+}
+
 _DISK_HINT = "drag: point → centre · click: pick 2 points"
+_RECENT_MAX = 8
+_POINT_RE = re.compile(
+    r"\(\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*,"
+    r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*\)"
+)
+
+
+def message_points(message: str) -> np.ndarray:
+    """The points "(x, y)" that an error message names, in order, without repeats (complex)."""
+    pts = [complex(float(a), float(b)) for a, b in _POINT_RE.findall(message)]
+    return np.array(list(dict.fromkeys(pts)), dtype=np.complex128)
 
 
 def _on_click(button: QAbstractButton, slot: Callable[[], Any]) -> None:
@@ -192,6 +251,9 @@ class MainWindow(QMainWindow):
         self._disk_press: tuple[complex, Isometry] | None = None
         self._disk_dragged = False
         self._job_polygon: tuple[complex, ...] | None = None
+        self.picked_quad: dict[str, Any] | None = None
+        self.problem_points = np.zeros(0, dtype=np.complex128)
+        self.shortcuts_dialog: QDialog | None = None
         self.runner = JobRunner(self)
         self.runner.progress.connect(self._on_progress)
         self.runner.finished.connect(self._on_finished)
@@ -236,6 +298,10 @@ class MainWindow(QMainWindow):
         self.warning_label.setObjectName("warning_label")
         self.warning_label.setStyleSheet("color: #c00000; font-weight: bold")
         self.statusBar().addPermanentWidget(self.warning_label)
+        self.coord_label = QLabel("")
+        self.coord_label.setObjectName("coord_label")
+        self.coord_label.setMinimumWidth(190)
+        self.statusBar().addPermanentWidget(self.coord_label)
 
         self.plane.mouse.connect(self._on_plane_mouse)
         self.disk.mouse.connect(self._on_disk_mouse)
@@ -262,6 +328,8 @@ class MainWindow(QMainWindow):
                 view.layers.setdefault(name, LayerState()).visible = DEFAULT_VISIBLE[name]
         for name, color in LAYER_COLORS.items():
             self.layer_panel.set_swatch(name, color)
+        self.legend = LegendPanel()
+        self.layer_panel.layout().insertWidget(self.layer_panel.layout().count() - 1, self.legend)
         self.layer_panel.setMaximumWidth(270)
         self._add_dock("Layers", self.layer_panel, Qt.LeftDockWidgetArea)
 
@@ -319,10 +387,12 @@ class MainWindow(QMainWindow):
             w.setValue(getattr(defaults, name))
             self.option_widgets[name] = w
             mf.addRow(label, w)
+            mf.labelForField(w).setToolTip(OPTION_TIPS[name])
         self.tol_edit = QLineEdit(f"{defaults.conformal_tol:g}")
         self.tol_edit.setValidator(QDoubleValidator(1e-16, 1e-2, 20))
         self.option_widgets["conformal_tol"] = self.tol_edit
         mf.addRow("conformal tolerance", self.tol_edit)
+        mf.labelForField(self.tol_edit).setToolTip(OPTION_TIPS["conformal_tol"])
         self.adaptive_check = QCheckBox("adaptive n")
         self.adaptive_check.setChecked(defaults.adaptive)
         self.option_widgets["adaptive"] = self.adaptive_check
@@ -331,13 +401,17 @@ class MainWindow(QMainWindow):
         self.repair_check.setChecked(defaults.repair)
         self.option_widgets["repair"] = self.repair_check
         mf.addRow(self.repair_check)
+        for name, w in self.option_widgets.items():
+            w.setToolTip(OPTION_TIPS[name])
         brow = QHBoxLayout()
         self.mesh_button = QPushButton("Mesh")
         self.mesh_button.setObjectName("mesh_button")
+        self.mesh_button.setToolTip("mesh the closed polygon with these settings (Ctrl+M)")
         _on_click(self.mesh_button, self.start_mesh)
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
         self.cancel_button.setObjectName("cancel_button")
+        self.cancel_button.setToolTip("stop the running mesher (Escape)")
         _on_click(self.cancel_button, self.cancel_mesh)
         brow.addWidget(self.mesh_button)
         brow.addWidget(self.cancel_button)
@@ -346,6 +420,7 @@ class MainWindow(QMainWindow):
         self.progress_bar.setRange(0, 1000)
         self.progress_bar.setValue(0)
         self.progress_bar.setFormat("idle")
+        self.progress_bar.setToolTip("the stage running and the fraction of the run done")
         mf.addRow(self.progress_bar)
         # the whole message of the last failure, wrapped and scrollable (hidden when none)
         self.error_box = ErrorBox()
@@ -363,6 +438,11 @@ class MainWindow(QMainWindow):
         self.info_label.setAlignment(Qt.AlignTop | Qt.AlignLeft)
         self.info_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
         il.addWidget(self.info_label)
+        self.quad_label = QLabel("click a quad of the mesh to see its angles")
+        self.quad_label.setObjectName("quad_label")
+        self.quad_label.setWordWrap(True)
+        self.quad_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        il.addWidget(self.quad_label)
         il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
         self.histogram = AngleHistogram()
         il.addWidget(self.histogram)
@@ -388,6 +468,8 @@ class MainWindow(QMainWindow):
         mb = self.menuBar()
         fm = mb.addMenu("&File")
         self._action(fm, "&Open polygon or mesh…", self._open_dialog, QKeySequence.Open)
+        self.recent_menu = fm.addMenu("Open &recent")
+        self._fill_recent_menu()
         self._action(fm, "&Save polygon…", self._save_dialog, QKeySequence.Save)
         self._action(fm, "&Export mesh…", self._export_dialog, "Ctrl+E")
         self._action(fm, "Save &window screenshot…", self._screenshot_dialog, "Ctrl+P")
@@ -406,6 +488,9 @@ class MainWindow(QMainWindow):
         mm = mb.addMenu("&Mesh")
         self._action(mm, "&Mesh polygon", self.start_mesh, "Ctrl+M")
         self._action(mm, "&Cancel", self.cancel_mesh, "Escape")
+        hm = mb.addMenu("&Help")
+        self.help_menu = hm
+        self._action(hm, "&Keyboard shortcuts…", self.show_shortcuts, QKeySequence.HelpContents)
 
     def _action(self, menu: Any, text: str, slot: Any, shortcut: Any = None) -> QAction:
         a = QAction(text, self)
@@ -426,6 +511,101 @@ class MainWindow(QMainWindow):
             a = QAction(name, self)
             a.triggered.connect(lambda _=False, n=name: self.load_example(n))
             self.examples_menu.addAction(a)
+
+    # ------------------------------------------------------------------ recent files
+    def recent_files(self) -> list[str]:
+        """Files opened lately, newest first (at most 8, remembered across sessions)."""
+        value = self.settings.value("recent_files", [])
+        if isinstance(value, str):  # QSettings gives a lone string for a one-item list
+            value = [value]
+        return [str(v) for v in (value or []) if v][:_RECENT_MAX]
+
+    def _add_recent(self, path: str | Path) -> None:
+        p = str(Path(path).resolve())
+        files = [p] + [f for f in self.recent_files() if f != p]
+        self.settings.setValue("recent_files", files[:_RECENT_MAX])
+        self.settings.sync()
+        self._fill_recent_menu()
+
+    def _fill_recent_menu(self) -> None:
+        self.recent_menu.clear()
+        files = self.recent_files()
+        for k, f in enumerate(files, start=1):
+            a = QAction(f"&{k} {Path(f).name}", self)
+            a.setToolTip(f)
+            a.setStatusTip(f)
+            a.setData(f)
+            a.triggered.connect(lambda _=False, f=f: self.open_recent(f))
+            self.recent_menu.addAction(a)
+        self.recent_menu.setEnabled(bool(files))
+
+    def open_recent(self, path: str) -> None:
+        """Open a file of the Open recent menu; a file that is gone leaves the list."""
+        if not Path(path).is_file():
+            files = [f for f in self.recent_files() if f != path]
+            self.settings.setValue("recent_files", files)
+            self.settings.sync()
+            self._fill_recent_menu()
+            self._show_error(f"{path} no longer exists; removed it from the recent files")
+            return
+        self._guarded(f"opening {Path(path).name}", self.open_file, path)
+
+    # ------------------------------------------------------------------ help
+    def shortcut_table(self) -> list[tuple[str, str]]:
+        """(shortcut, what it does) for every action of the window that has a shortcut,
+        read from the actions themselves, in menu order."""
+        rows: list[tuple[str, str]] = []
+        seen: set[int] = set()
+
+        def walk(actions: list[QAction]) -> None:
+            for a in actions:
+                if id(a) in seen:
+                    continue
+                seen.add(id(a))
+                if a.menu() is not None:
+                    walk(a.menu().actions())
+                elif not a.shortcut().isEmpty():
+                    keys = a.shortcut().toString(QKeySequence.NativeText)
+                    rows.append((keys, a.text().replace("&", "").rstrip("…")))
+
+        walk(self.menuBar().actions())
+        walk(self.actions())
+        return rows
+
+    def show_shortcuts(self) -> None:
+        """Help ▸ Keyboard shortcuts: a dialog listing :meth:`shortcut_table` and the mouse
+        gestures of the two views."""
+        rows = [
+            *self.shortcut_table(),
+            ("Delete / Backspace", "delete the selected vertex (draw mode)"),
+            ("left click (plane)", "draw mode: add a vertex; otherwise: show the quad's angles"),
+            ("left drag (plane)", "draw mode: move a vertex; otherwise: pan"),
+            ("middle drag / wheel", "pan / zoom"),
+            ("left drag (disk)", "move the point to the centre by a disk automorphism"),
+            ("left click (disk)", "pick two points: hyperbolic distance and geodesic"),
+        ]
+        dlg = QDialog(self)
+        dlg.setObjectName("shortcuts_dialog")
+        dlg.setWindowTitle("Keyboard shortcuts and mouse")
+        dlg.setAttribute(Qt.WA_DeleteOnClose)
+        lay = QVBoxLayout(dlg)
+        table = QTableWidget(len(rows), 2, dlg)
+        table.setObjectName("shortcuts_table")
+        table.setHorizontalHeaderLabels(["keys", "action"])
+        table.verticalHeader().hide()
+        table.setEditTriggers(QTableWidget.NoEditTriggers)
+        for r, (k, what) in enumerate(rows):
+            table.setItem(r, 0, QTableWidgetItem(k))
+            table.setItem(r, 1, QTableWidgetItem(what))
+        table.resizeColumnsToContents()
+        table.horizontalHeader().setStretchLastSection(True)
+        lay.addWidget(table)
+        buttons = QDialogButtonBox(QDialogButtonBox.Close, parent=dlg)
+        buttons.rejected.connect(dlg.reject)
+        lay.addWidget(buttons)
+        dlg.resize(520, 420)
+        self.shortcuts_dialog = dlg
+        dlg.open()
 
     def _put(self, view: View2D, name: str, geometry: LayerGeometry | None) -> None:
         """Set a layer's geometry and show its flat colour on the layer panel's swatch."""
@@ -474,6 +654,7 @@ class MainWindow(QMainWindow):
             self.open_mesh(path)
         else:
             self.open_polygon(path)
+        self._add_recent(path)
 
     def open_mesh(self, path: str | Path) -> None:
         """Read a quad mesh file with quadmesh.io and show it (:meth:`show_mesh`)."""
@@ -501,6 +682,7 @@ class MainWindow(QMainWindow):
         # the result-like object the layer builders of quadmesh.render need
         loaded = SimpleNamespace(mesh=mesh, polygon=None, quality=quality, origin=0j)
         self.loaded_mesh, self._loaded = mesh, loaded
+        self._forget_picked_quad()
         for layer in ("final_mesh", "bad_quads"):
             self._put(self.plane, layer, build_layer(loaded, layer, color_by=self.color_mode))
         q = quality
@@ -567,6 +749,11 @@ class MainWindow(QMainWindow):
         self.plane.render()
 
     def _on_plane_mouse(self, kind: str, w: complex, modifiers: int) -> None:
+        if kind == "hover":
+            self.coord_label.setText(f"x = {w.real:.6g}, y = {w.imag:.6g}")
+        if kind == "click":
+            self.pick_quad(w)
+            return
         tol = 8.0 * self.plane.pixel_size()
         ed = self.editor
         if kind == "press":
@@ -596,6 +783,103 @@ class MainWindow(QMainWindow):
                 self._polygon_changed()
         elif kind == "hover":
             self._rubber_band(w)
+
+    # ------------------------------------------------------------------ quad picking
+    def _shown_shift(self) -> complex:
+        """Where the shown mesh's vertex coordinates are relative to (MeshResult.mesh_origin)."""
+        if self.result is not None:
+            return complex(getattr(self.result, "mesh_origin", 0j) or 0j)
+        return 0j
+
+    def quad_at(self, w: complex) -> int | None:
+        """Index of the quad of the mesh on screen that contains the plane point ``w`` (the
+        first one when ``w`` is on a shared edge), None outside the mesh."""
+        mesh = self.shown_mesh()
+        if mesh is None or mesh.n_quads == 0:
+            return None
+        c = mesh.z[mesh.quads]  # (Q, 4) corners, counter-clockwise
+        p = complex(w) - self._shown_shift()
+        e = np.roll(c, -1, axis=1) - c
+        d = p - c
+        cross = e.real * d.imag - e.imag * d.real
+        tol = 1e-12 * np.abs(e) * (np.abs(d) + np.abs(e))
+        inside = np.flatnonzero(np.all(cross >= -tol, axis=1))
+        return int(inside[0]) if inside.size else None
+
+    def quad_info(self, k: int) -> dict[str, Any]:
+        """What the app tells about quad ``k`` of the mesh on screen: its four corner angles
+        (degrees, at ``quads[k, 0..3]``), the worst |angle − 90°|, and, for a meshed result,
+        its stage kind ("disk", "sector", "channel", "corridor") and the part it came from."""
+        from quadmesh.io import STAGE_KINDS, quad_part_index
+
+        mesh = self.shown_mesh()
+        ang = np.asarray(mesh.angles()[k], dtype=np.float64)
+        info: dict[str, Any] = {
+            "quad": k,
+            "angles": ang,
+            "worst": float(np.abs(ang - 90.0).max()),
+            "stage": None,
+            "piece": None,
+            "part": None,
+        }
+        r = self.result
+        if r is None or mesh is not r.mesh:
+            return info
+        src = getattr(r, "quad_source", None)
+        if src is not None and len(src) == mesh.n_quads:
+            info["stage"] = STAGE_KINDS.get(int(src[k]), str(int(src[k])))
+        part = quad_part_index(r)
+        if part is not None:
+            j = int(part[k])
+            info["piece"] = j
+            info["part"] = self._describe_part(j)
+        return info
+
+    def _describe_part(self, j: int) -> str:
+        r = self.result
+        if j < len(r.pieces):
+            return f"thick piece {r.pieces[j].index}"
+        t = r.thin[j - len(r.pieces)]
+        title = THIN_KIND_TITLES.get(t.kind, t.kind)
+        collar = " (conformal collar)" if type(t.mesh).__name__ == "CollarMesh" else ""
+        if t.kind == "parabolic":
+            poly = getattr(r.decomposition, "polygon", None) or r.polygon
+            try:
+                where = poly.describe_vertex(t.owner)
+            except (AttributeError, IndexError, TypeError):
+                where = f"vertex {t.owner}"
+            return f"{title} at {where}{collar}"
+        if t.kind == "hyperbolic":
+            return f"{title} {t.owner}{collar}"
+        return title
+
+    def pick_quad(self, w: complex) -> int | None:
+        """Show the angles, stage kind and part of the quad under ``w`` (information panel and
+        status bar) and outline it; returns its index (None: no quad there)."""
+        k = self.quad_at(w)
+        if k is None:
+            self.picked_quad = None
+            self.plane.set_overlay("picked_quad", None)
+            if self.shown_mesh() is not None:
+                self.quad_label.setText(f"no quad at ({w.real:.6g}, {w.imag:.6g})")
+            self.plane.render()
+            return None
+        info = self.quad_info(k)
+        self.picked_quad = info
+        angles = ", ".join(f"{a:.2f}°" for a in info["angles"])
+        text = f"quad {k}: angles {angles}; worst |θ − 90°| = {info['worst']:.2f}°"
+        if info["stage"] is not None:
+            text += f"; stage: {info['stage']}"
+        if info["part"] is not None:
+            text += f"; piece {info['piece']}: {info['part']}"
+        self.quad_label.setText(text)
+        self.statusBar().showMessage(text, 15000)
+        mesh = self.shown_mesh()
+        corners = mesh.z[mesh.quads[k]] + self._shown_shift()
+        part = line_part([corners], color="#ff7f0e", line_width=4.0, closed=True, label="quad")
+        self.plane.set_overlay("picked_quad", LayerGeometry("picked_quad", "plane", [part]))
+        self.plane.render()
+        return k
 
     def _rubber_band(self, w: complex | None) -> None:
         """Thin line from the last vertex to the cursor while an open polygon is drawn."""
@@ -769,6 +1053,22 @@ class MainWindow(QMainWindow):
     def _on_failed(self, message: str) -> None:
         self.progress_bar.setFormat("failed")
         self._show_error(message)
+        self._mark_problem(message)
+
+    def _mark_problem(self, message: str) -> None:
+        """Red markers on the plane view at every "(x, y)" point the failure message names
+        (the mesher's exceptions carry no partial mesh, only the place in the message)."""
+        pts = message_points(message)
+        self.problem_points = pts
+        geo = None
+        if pts.size:
+            geo = LayerGeometry(
+                "problem",
+                "plane",
+                [points_part(pts, color="#e00000", point_size=18.0, label="problem")],
+            )
+        self.plane.set_overlay("problem", geo)
+        self.plane.render()
 
     def _on_cancelled(self) -> None:
         self.progress_bar.setValue(0)
@@ -799,6 +1099,10 @@ class MainWindow(QMainWindow):
             return
         self.last_error = None
         self.error_box.clear_message()
+        if "problem" in self.plane.overlays:
+            self.problem_points = np.zeros(0, dtype=np.complex128)
+            self.plane.set_overlay("problem", None)
+            self.plane.render()
         self.statusBar().clearMessage()
         if self.progress_bar.format() == "failed":
             self.progress_bar.setValue(0)
@@ -823,10 +1127,16 @@ class MainWindow(QMainWindow):
                 problems.append(f"{LAYER_TITLES[name]}: {exc}")
         self._draw_disk_result()
         self._update_info(problems)
+        self._refresh_legend()
+        self._forget_picked_quad()
         if self.plane.fit_bounds is not None:
             self.reset_plane_view()  # still fitted: make room for the colour bar
         self.plane.render()
         self.disk.render()
+
+    def _refresh_legend(self) -> None:
+        visible = {n for n in self.layer_panel.visible_layers()}
+        self.legend.set_entries(legend_entries(self.result, visible, self.disk_piece))
 
     def _draw_disk_result(self) -> None:
         r = self.result
@@ -836,9 +1146,16 @@ class MainWindow(QMainWindow):
                 continue
             self._put(self.disk, name, build_layer(r, name, piece=self.disk_piece))
 
+    def _forget_picked_quad(self) -> None:
+        self.picked_quad = None
+        self.plane.set_overlay("picked_quad", None)
+        self.quad_label.setText("click a quad of the mesh to see its angles")
+
     def _drop_result(self, why: str) -> None:
         self.result = None
         self.loaded_mesh = self._loaded = None
+        self._refresh_legend()
+        self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
         self.info_label.setText(why)
@@ -859,6 +1176,7 @@ class MainWindow(QMainWindow):
     def _on_piece_changed(self, k: int) -> None:
         self.disk_piece = k
         self._draw_disk_result()
+        self._refresh_legend()
         self.disk.render()
 
     def _update_info(self, problems: list[str]) -> None:
@@ -910,6 +1228,7 @@ class MainWindow(QMainWindow):
     def _on_layer_toggled(self, view: str, name: str, on: bool) -> None:
         v = self._view(view)
         v.set_visible(name, on)
+        self._refresh_legend()
         v.render()
 
     def set_visible_layers(self, names: list[str]) -> None:
@@ -1019,16 +1338,24 @@ class MainWindow(QMainWindow):
         return self.loaded_mesh
 
     def export_mesh(self, path: str | Path) -> None:
-        """Write the mesh on screen with quadmesh.io (format from the suffix)."""
+        """Write the mesh on screen with quadmesh.io (format from the suffix), with its
+        per-quad data (:func:`quadmesh.io.result_cell_data`: corner angles, worst deviation,
+        stage kind and piece) as cell data in VTK, VTU, MSH and JSON."""
         from quadmesh.io import write_mesh
 
         mesh = self.shown_mesh()
         if mesh is None:
             raise QuadmeshError("there is no mesh to export; mesh the polygon first", stage="io")
+        from types import SimpleNamespace
+
+        from quadmesh.io import result_cell_data
+
         origin = 0j
+        source: Any = SimpleNamespace(mesh=mesh)
         if self.result is not None and mesh is self.result.mesh:
             origin = complex(getattr(self.result, "mesh_origin", 0j) or 0j)
-        write_mesh(path, mesh, origin=origin)
+            source = self.result
+        write_mesh(path, mesh, origin=origin, cell_data=result_cell_data(source))
 
     def save_screenshot(self, path: str | Path) -> None:
         """Save a PNG of the whole window (views included)."""

@@ -15,6 +15,10 @@ Meshes (:func:`write_mesh`, :func:`read_mesh`): JSON ``{"vertices": ..., "quads"
 0-based indices (and ``"origin": [x, y]`` when the vertices are relative to it), and
 through meshio VTK, VTU, MSH, OBJ, PLY and Medit (:data:`MESH_FORMATS`).
 Every failure raises :class:`~quadmesh.errors.InputFormatError` naming the file.
+
+Per-quad data (:func:`result_cell_data`: corner angles, worst deviation from 90°, the part
+each quad came from and its stage kind) goes into VTK/VTU/MSH files as cell data and into
+JSON as ``"cell_data"``, so that ParaView (or a script) can colour and threshold by it.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ __all__ = [
     "read_mesh",
     "read_mesh_with_origin",
     "read_polygon",
+    "result_cell_data",
     "write_mesh",
     "write_polygon",
 ]
@@ -364,7 +369,83 @@ def write_polygon(
     path.write_text(json.dumps(data, separators=(",", ":")) + "\n", encoding="utf-8")
 
 
-def write_mesh(path: str | Path, mesh: QuadMesh, origin: complex = 0j) -> None:
+STAGE_KINDS: dict[int, str] = {0: "disk", 1: "sector", 2: "channel", 3: "corridor"}
+"""Codes of the ``stage`` cell array (:attr:`quadmesh.result.MeshResult.quad_source`): the
+disk mesh of a thick piece, a vertex sector, a channel connector, a corridor ladder."""
+
+_CELL_DATA_FORMATS = (".json", ".vtk", ".vtu", ".msh")
+
+
+def quad_part_index(result: object) -> np.ndarray | None:
+    """Per final quad, the index of the part it came from: thick pieces first (``k`` for
+    ``result.pieces[k]``), then thin parts (``len(pieces) + j`` for ``result.thin[j]``;
+    a conformal collar is a thin part of its own), in the order the mesh was assembled.
+    None when the counts do not add up to the mesh's quads (then nothing can be told)."""
+    pieces = tuple(getattr(result, "pieces", ()) or ())
+    thin = tuple(getattr(result, "thin", ()) or ())
+    mesh = getattr(result, "mesh", None)
+    if mesh is None:
+        return None
+    counts = [len(np.asarray(p.disk.quads)) for p in pieces]
+    counts += [len(np.asarray(t.mesh.quads)) for t in thin]
+    total = sum(counts)
+    if total == 0 or mesh.n_quads % total:
+        return None
+    per = mesh.n_quads // total  # refine × refine sub-quads per assembled quad, consecutive
+    refine = int(getattr(getattr(result, "options", None), "refine", 1) or 1)
+    if per != refine * refine:
+        return None
+    part = np.repeat(np.arange(len(counts), dtype=np.int32), counts)
+    return np.repeat(part, per)
+
+
+def result_cell_data(result: object) -> dict[str, np.ndarray]:
+    """Per-quad arrays of a :class:`~quadmesh.result.MeshResult` (or of anything with a
+    ``mesh``), for :func:`write_mesh`'s ``cell_data``:
+
+    * ``angle_0`` … ``angle_3``: the corner angles in degrees at ``quads[:, k]``;
+    * ``min_angle``, ``max_angle``: the smallest and largest of the four;
+    * ``worst_deviation``: max |angle − 90°| (0 for a rectangle; 30 at the [60°, 120°] limits);
+    * ``stage``: the stage kind (:data:`STAGE_KINDS`: 0 disk/thick piece, 1 vertex sector,
+      2 channel, 3 corridor), when the result has ``quad_source``;
+    * ``piece``: the part index (:func:`quad_part_index`), when it can be told.
+    """
+    mesh = result.mesh  # type: ignore[attr-defined]
+    ang = np.asarray(mesh.angles(), dtype=np.float64).reshape(-1, 4)
+    data: dict[str, np.ndarray] = {f"angle_{k}": ang[:, k].copy() for k in range(4)}
+    data["min_angle"] = ang.min(axis=1)
+    data["max_angle"] = ang.max(axis=1)
+    data["worst_deviation"] = np.abs(ang - 90.0).max(axis=1)
+    src = getattr(result, "quad_source", None)
+    if src is not None and len(src) == mesh.n_quads:
+        data["stage"] = np.asarray(src, dtype=np.int32)
+    part = quad_part_index(result)
+    if part is not None:
+        data["piece"] = part
+    return data
+
+
+def _check_cell_data(path: Path, n_quads: int, cell_data: dict | None) -> dict[str, np.ndarray]:
+    out: dict[str, np.ndarray] = {}
+    for name, values in (cell_data or {}).items():
+        arr = np.asarray(values)
+        if arr.ndim != 1 or arr.shape[0] != n_quads:
+            raise InputFormatError(
+                f"{path}: cell data {name!r} has shape {arr.shape}; it needs one value per "
+                f"quad ({n_quads})"
+            )
+        if not np.issubdtype(arr.dtype, np.number):
+            raise InputFormatError(f"{path}: cell data {name!r} must be numbers")
+        out[str(name)] = arr
+    return out
+
+
+def write_mesh(
+    path: str | Path,
+    mesh: QuadMesh,
+    origin: complex = 0j,
+    cell_data: dict[str, np.ndarray] | None = None,
+) -> None:
     """Write ``mesh``: ``.json`` as ``{"vertices": [[x, y], ...], "quads": [[i, j, k, l], ...]}``
     (0-based); ``.vtk``, ``.vtu``, ``.msh`` (Gmsh 2.2), ``.obj``, ``.ply``, ``.mesh`` (Medit)
     through meshio with z = 0. Other extensions raise :class:`InputFormatError`.
@@ -372,25 +453,43 @@ def write_mesh(path: str | Path, mesh: QuadMesh, origin: complex = 0j) -> None:
     ``origin``: the vertices are relative to this point (a mesh far from (0, 0), see
     :attr:`quadmesh.result.MeshResult.mesh_origin`). JSON then also holds
     ``"origin": [x, y]``; the other formats have no place for it and store the relative
-    coordinates only (the caller tells the user the origin)."""
+    coordinates only (the caller tells the user the origin).
+
+    ``cell_data``: optional per-quad arrays (name -> one number per quad, e.g.
+    :func:`result_cell_data`), written as cell data in ``.vtk``, ``.vtu`` and ``.msh`` and as
+    ``"cell_data": {name: [...]}`` in JSON; OBJ, PLY and Medit files get the mesh only. An
+    array of the wrong length raises :class:`InputFormatError`."""
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in MESH_FORMATS:
         raise InputFormatError(
             f"{path}: unsupported mesh format {ext!r} (use {', '.join(MESH_FORMATS)})"
         )
+    cells = _check_cell_data(path, mesh.n_quads, cell_data)
+    if ext not in _CELL_DATA_FORMATS:
+        cells = {}
     if ext == ".json":
         data: dict = {}
         if origin:
             data["origin"] = [complex(origin).real, complex(origin).imag]
         data["vertices"] = mesh.vertices.tolist()
         data["quads"] = mesh.quads.tolist()
+        if cells:
+            data["cell_data"] = {k: v.tolist() for k, v in cells.items()}
         path.write_text(json.dumps(data, separators=(",", ":")) + "\n", encoding="utf-8")
         return
     import meshio
 
     points = np.column_stack([mesh.vertices, np.zeros(mesh.n_vertices)])
-    m = meshio.Mesh(points, [("quad", np.asarray(mesh.quads, dtype=np.int64))])
+    if ext == ".msh" and cells:
+        # meshio's ASCII Gmsh writer prints each value's repr: numpy scalars would come out
+        # as "np.float64(1.5)", which no reader parses; Python floats print plainly
+        cells = {k: np.array(v.astype(np.float64).tolist(), dtype=object) for k, v in cells.items()}
+    m = meshio.Mesh(
+        points,
+        [("quad", np.asarray(mesh.quads, dtype=np.int64))],
+        cell_data={k: [v] for k, v in cells.items()},
+    )
     try:
         if ext == ".msh":
             meshio.write(path, m, file_format="gmsh22", binary=False)

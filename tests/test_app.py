@@ -157,10 +157,14 @@ _MESHED: dict[str, object] = {}
 
 @pytest.fixture
 def meshed(main_window, qtbot):
-    """The window after meshing the L-shape by clicking Mesh (the first time; later tests show
-    the same MeshResult again to keep the GUI suite fast)."""
+    """The window after meshing the L-shape by clicking Mesh (:func:`mesh_l_shape`)."""
+    return mesh_l_shape(main_window, qtbot)
+
+
+def mesh_l_shape(win, qtbot):
+    """Mesh the L-shape by clicking Mesh (the first time; later calls show the same
+    MeshResult again to keep the GUI suite fast); returns the window."""
     require_pipeline()
-    win = main_window
     load_l_shape(win)
     if "result" in _MESHED:
         win.set_result(_MESHED["result"])
