@@ -129,7 +129,7 @@ def _read_polygon(path: Path):
 
 
 def _cmd_mesh(args: argparse.Namespace) -> int:
-    from .io import MESH_FORMATS, write_mesh
+    from .io import MESH_FORMATS, result_cell_data, write_mesh
     from .pipeline import MeshOptions, mesh_polygon
 
     if args.output.suffix.lower() not in MESH_FORMATS:
@@ -155,7 +155,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     result = mesh_polygon(poly, options, progress=progress if args.verbose else None)
     elapsed = time.perf_counter() - t0
     origin = result.mesh_origin
-    write_mesh(args.output, result.mesh, origin=origin)
+    # per quad: the four angles, worst deviation, stage kind and piece (ParaView can colour
+    # and threshold by them)
+    write_mesh(args.output, result.mesh, origin=origin, cell_data=result_cell_data(result))
     _check_written(args.output, result, poly)
     q = result.quality
     if origin:
