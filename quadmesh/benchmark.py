@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -190,8 +191,8 @@ def run_outlines(seed: int = 0) -> list[dict]:
     return rows
 
 
-def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> None:
-    """Mesh ``vertices`` in a worker process; send a small result dict through ``conn``."""
+def _mesh_vertices(vertices: np.ndarray, options: MeshOptions | None) -> dict:
+    """Mesh ``vertices``; a small result dict (status, time, quads and sizes or the error)."""
     from .errors import QuadmeshError
 
     t0 = time.perf_counter()
@@ -208,8 +209,79 @@ def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> Non
         out["min_angle"], out["max_angle"] = r.quality.min_angle, r.quality.max_angle
         out.update(_size_row(r.quality))
     out["time"] = time.perf_counter() - t0
-    conn.send(out)
+    return out
+
+
+def process_context():
+    """The multiprocessing context of the worker processes: ``fork`` where the platform has
+    it (a worker starts in milliseconds with quadmesh already imported), else ``spawn``."""
+    import multiprocessing as mp
+
+    return mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+
+
+def _call_worker(conn, target, args: tuple) -> None:
+    """Worker process body: send ``target(*args)`` through ``conn``."""
+    conn.send(target(*args))
     conn.close()
+
+
+def run_in_processes(
+    target: Callable,
+    arg_tuples: Sequence[tuple],
+    *,
+    timeout: float | None,
+    workers: int = 1,
+    on_timeout: Callable[[int, float], object],
+    on_died: Callable[[int, float], object],
+    on_result: Callable[[int, object], None] | None = None,
+) -> list:
+    """Call ``target(*args)`` for every ``args`` of ``arg_tuples`` in its own worker process
+    (at most ``workers`` at a time) and return the values in order. A worker still running
+    after ``timeout`` seconds (None: no limit) is killed and its value is
+    ``on_timeout(i, seconds)``; a worker that dies without answering gets
+    ``on_died(i, seconds)``. ``on_result(i, value)`` is called as each call finishes."""
+    from multiprocessing.connection import wait
+
+    ctx = process_context()
+    pending = list(range(len(arg_tuples)))
+    running: dict = {}
+    results: list = [None] * len(arg_tuples)
+    limit = float("inf") if timeout is None else timeout
+
+    def finish(i: int, res: object) -> None:
+        results[i] = res
+        if on_result is not None:
+            on_result(i, res)
+
+    while pending or running:
+        while pending and len(running) < max(1, workers):
+            i = pending.pop(0)
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_call_worker, args=(send, target, arg_tuples[i]), daemon=True)
+            proc.start()
+            send.close()
+            running[recv] = (i, proc, time.perf_counter())
+        now = time.perf_counter()
+        left = min(t0 + limit - now for _, _, t0 in running.values())
+        for conn in wait(list(running), timeout=None if left == float("inf") else max(left, 0.0)):
+            i, proc, t0 = running.pop(conn)
+            try:
+                res = conn.recv()
+            except EOFError:
+                res = on_died(i, time.perf_counter() - t0)
+            conn.close()
+            proc.join()
+            finish(i, res)
+        now = time.perf_counter()
+        for conn, (i, proc, t0) in list(running.items()):
+            if now - t0 >= limit:
+                proc.kill()
+                proc.join()
+                conn.close()
+                del running[conn]
+                finish(i, on_timeout(i, now - t0))
+    return results
 
 
 def mesh_with_timeout(
@@ -226,60 +298,34 @@ def mesh_with_timeout(
     ``median_edge_lfs``, ``share_below_floor``, ``share_below_warn``) or
     ``error``/``stage``/``message``.
     ``on_result(i, result)`` is called as each polygon finishes."""
-    import multiprocessing as mp
-    from multiprocessing.connection import wait
 
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    pending = list(range(len(polygons)))
-    running: dict = {}
-    results: list[dict] = [{} for _ in polygons]
+    def killed(i: int, seconds: float) -> dict:
+        return {
+            "status": "timeout",
+            "error": "Timeout",
+            "stage": "-",
+            "time": timeout,
+            "message": "no result within the time limit",
+        }
 
-    def finish(i: int, res: dict) -> None:
-        results[i] = res
-        if on_result is not None:
-            on_result(i, res)
+    def died(i: int, seconds: float) -> dict:
+        return {
+            "status": "crashed",
+            "error": "WorkerDied",
+            "stage": "-",
+            "message": "the worker process died (out of memory?)",
+            "time": seconds,
+        }
 
-    while pending or running:
-        while pending and len(running) < max(1, workers):
-            i = pending.pop(0)
-            recv, send = ctx.Pipe(duplex=False)
-            proc = ctx.Process(
-                target=_mesh_worker, args=(send, np.asarray(polygons[i]), options), daemon=True
-            )
-            proc.start()
-            send.close()
-            running[recv] = (i, proc, time.perf_counter())
-        now = time.perf_counter()
-        left = min(t0 + timeout - now for _, _, t0 in running.values())
-        for conn in wait(list(running), timeout=max(left, 0.0)):
-            i, proc, t0 = running.pop(conn)
-            try:
-                res = conn.recv()
-            except EOFError:
-                res = {"status": "crashed", "error": "WorkerDied", "stage": "-"}
-                res["message"] = "the worker process died (out of memory?)"
-                res["time"] = time.perf_counter() - t0
-            conn.close()
-            proc.join()
-            finish(i, res)
-        now = time.perf_counter()
-        for conn, (i, proc, t0) in list(running.items()):
-            if now - t0 >= timeout:
-                proc.kill()
-                proc.join()
-                conn.close()
-                del running[conn]
-                finish(
-                    i,
-                    {
-                        "status": "timeout",
-                        "error": "Timeout",
-                        "stage": "-",
-                        "time": timeout,
-                        "message": "no result within the time limit",
-                    },
-                )
-    return results
+    return run_in_processes(
+        _mesh_vertices,
+        [(np.asarray(p), options) for p in polygons],
+        timeout=timeout,
+        workers=workers,
+        on_timeout=killed,
+        on_died=died,
+        on_result=on_result,
+    )
 
 
 def _subset(items: list, limit: int | None) -> list:
