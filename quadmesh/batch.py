@@ -17,6 +17,9 @@ Where the work runs:
 * else ``jobs`` > 1: a :class:`~concurrent.futures.ProcessPoolExecutor` of ``jobs`` workers;
 * else the files are meshed one after the other in this process.
 
+In parallel the files are started largest first (file size as the guess of the work), so
+that a long polygon does not start last; the results keep the order of the inputs.
+
 ``timeout``: a polygon still being meshed ``timeout`` seconds after its start is stopped at
 the pipeline's next cancellation checkpoint (polled every 0.05 s inside the long loops) and
 reported with ``status="timeout"``; this works in any executor. Without a user executor,
@@ -386,21 +389,43 @@ def mesh_files(
         raise ValueError(f"timeout must be positive, got {timeout}")
     work = list(zip(paths, output_paths(paths, outdir, fmt)))
     outdir.mkdir(parents=True, exist_ok=True)
-    if executor is not None:
-        return _run_executor(executor, work, options, timeout, on_result)
-    if timeout is not None:
-        return _run_own_processes(work, jobs, options, timeout, on_result)
-    if jobs == 1 or len(work) <= 1:
+    if executor is None and timeout is None and (jobs == 1 or len(work) <= 1):
         results = []
         for i, (p, o) in enumerate(work):
             results.append(mesh_file(p, o, options))
             if on_result is not None:
                 on_result(i, results[-1])
         return results
-    from .benchmark import process_context
+    # in parallel, the largest files first: a long polygon started last would leave the other
+    # workers idle at the end (longest-first keeps the wall time near sum / workers)
+    order = sorted(range(len(work)), key=lambda i: -_size(work[i][0]))
+    queued = [work[i] for i in order]
 
-    with ProcessPoolExecutor(min(jobs, len(work)), mp_context=process_context()) as pool:
-        return _run_executor(pool, work, options, None, on_result)
+    def back(k: int, r: BatchResult) -> None:
+        if on_result is not None:
+            on_result(order[k], r)
+
+    if executor is not None:
+        done = _run_executor(executor, queued, options, timeout, back)
+    elif timeout is not None:
+        done = _run_own_processes(queued, jobs, options, timeout, back)
+    else:
+        from .benchmark import process_context
+
+        with ProcessPoolExecutor(min(jobs, len(work)), mp_context=process_context()) as pool:
+            done = _run_executor(pool, queued, options, None, back)
+    results: list[BatchResult] = list(done)
+    for k, i in enumerate(order):
+        results[i] = done[k]
+    return results
+
+
+def _size(path: Path) -> int:
+    """Bytes of ``path`` (0 when it cannot be read): the cost guess for scheduling."""
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
 
 
 def format_table(results: Sequence[BatchResult], *, stats: bool = False) -> str:

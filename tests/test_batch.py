@@ -145,11 +145,11 @@ def _same(a: list[BatchResult], b: list[BatchResult]) -> None:
 
 
 def test_two_jobs_give_the_serial_meshes(folder, serial, tmp_path) -> None:
-    done: list[int] = []
-    parallel = mesh_files(
-        polygon_files(folder), tmp_path, jobs=2, on_result=lambda i, r: done.append(i)
-    )
-    assert sorted(done) == [0, 1, 2, 3]
+    files = polygon_files(folder)
+    done: list[tuple[int, Path]] = []
+    parallel = mesh_files(files, tmp_path, jobs=2, on_result=lambda i, r: done.append((i, r.path)))
+    assert sorted(done) == list(enumerate(files))  # on_result gets the input's index
+    assert [r.path for r in parallel] == files
     _same(serial, parallel)
 
 
