@@ -14,6 +14,10 @@
   random walks), every polygon meshed in a worker process killed after S seconds; one table
   row per family (meshed/total, quads per vertex, time, smallest edge / local width,
   length/width) and a summary of the failure reasons;
+* ``--vs-gmsh [--limit K]``: side by side with Gmsh's quad mesher (frontal-Delaunay for quads,
+  Blossom recombination, element size diameter / 40) on outlines of 6–100 vertices: times,
+  quads, Gmsh's leftover triangles and its share of quads with all new angles in
+  [60°, 120°] (the optional ``gmsh`` package; without it a one-line message);
 * ``--disk``: the disk construction alone (Lemma 2.2 + piece meshes) for m = 10, 100, 1000
   random admissible arcs: time, pieces and quads.
 
@@ -24,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -190,8 +195,8 @@ def run_outlines(seed: int = 0) -> list[dict]:
     return rows
 
 
-def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> None:
-    """Mesh ``vertices`` in a worker process; send a small result dict through ``conn``."""
+def _mesh_vertices(vertices: np.ndarray, options: MeshOptions | None) -> dict:
+    """Mesh ``vertices``; a small result dict (status, time, quads and sizes or the error)."""
     from .errors import QuadmeshError
 
     t0 = time.perf_counter()
@@ -208,8 +213,79 @@ def _mesh_worker(conn, vertices: np.ndarray, options: MeshOptions | None) -> Non
         out["min_angle"], out["max_angle"] = r.quality.min_angle, r.quality.max_angle
         out.update(_size_row(r.quality))
     out["time"] = time.perf_counter() - t0
-    conn.send(out)
+    return out
+
+
+def process_context():
+    """The multiprocessing context of the worker processes: ``fork`` where the platform has
+    it (a worker starts in milliseconds with quadmesh already imported), else ``spawn``."""
+    import multiprocessing as mp
+
+    return mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+
+
+def _call_worker(conn, target, args: tuple) -> None:
+    """Worker process body: send ``target(*args)`` through ``conn``."""
+    conn.send(target(*args))
     conn.close()
+
+
+def run_in_processes(
+    target: Callable,
+    arg_tuples: Sequence[tuple],
+    *,
+    timeout: float | None,
+    workers: int = 1,
+    on_timeout: Callable[[int, float], object],
+    on_died: Callable[[int, float], object],
+    on_result: Callable[[int, object], None] | None = None,
+) -> list:
+    """Call ``target(*args)`` for every ``args`` of ``arg_tuples`` in its own worker process
+    (at most ``workers`` at a time) and return the values in order. A worker still running
+    after ``timeout`` seconds (None: no limit) is killed and its value is
+    ``on_timeout(i, seconds)``; a worker that dies without answering gets
+    ``on_died(i, seconds)``. ``on_result(i, value)`` is called as each call finishes."""
+    from multiprocessing.connection import wait
+
+    ctx = process_context()
+    pending = list(range(len(arg_tuples)))
+    running: dict = {}
+    results: list = [None] * len(arg_tuples)
+    limit = float("inf") if timeout is None else timeout
+
+    def finish(i: int, res: object) -> None:
+        results[i] = res
+        if on_result is not None:
+            on_result(i, res)
+
+    while pending or running:
+        while pending and len(running) < max(1, workers):
+            i = pending.pop(0)
+            recv, send = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=_call_worker, args=(send, target, arg_tuples[i]), daemon=True)
+            proc.start()
+            send.close()
+            running[recv] = (i, proc, time.perf_counter())
+        now = time.perf_counter()
+        left = min(t0 + limit - now for _, _, t0 in running.values())
+        for conn in wait(list(running), timeout=None if left == float("inf") else max(left, 0.0)):
+            i, proc, t0 = running.pop(conn)
+            try:
+                res = conn.recv()
+            except EOFError:
+                res = on_died(i, time.perf_counter() - t0)
+            conn.close()
+            proc.join()
+            finish(i, res)
+        now = time.perf_counter()
+        for conn, (i, proc, t0) in list(running.items()):
+            if now - t0 >= limit:
+                proc.kill()
+                proc.join()
+                conn.close()
+                del running[conn]
+                finish(i, on_timeout(i, now - t0))
+    return results
 
 
 def mesh_with_timeout(
@@ -226,60 +302,34 @@ def mesh_with_timeout(
     ``median_edge_lfs``, ``share_below_floor``, ``share_below_warn``) or
     ``error``/``stage``/``message``.
     ``on_result(i, result)`` is called as each polygon finishes."""
-    import multiprocessing as mp
-    from multiprocessing.connection import wait
 
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    pending = list(range(len(polygons)))
-    running: dict = {}
-    results: list[dict] = [{} for _ in polygons]
+    def killed(i: int, seconds: float) -> dict:
+        return {
+            "status": "timeout",
+            "error": "Timeout",
+            "stage": "-",
+            "time": timeout,
+            "message": "no result within the time limit",
+        }
 
-    def finish(i: int, res: dict) -> None:
-        results[i] = res
-        if on_result is not None:
-            on_result(i, res)
+    def died(i: int, seconds: float) -> dict:
+        return {
+            "status": "crashed",
+            "error": "WorkerDied",
+            "stage": "-",
+            "message": "the worker process died (out of memory?)",
+            "time": seconds,
+        }
 
-    while pending or running:
-        while pending and len(running) < max(1, workers):
-            i = pending.pop(0)
-            recv, send = ctx.Pipe(duplex=False)
-            proc = ctx.Process(
-                target=_mesh_worker, args=(send, np.asarray(polygons[i]), options), daemon=True
-            )
-            proc.start()
-            send.close()
-            running[recv] = (i, proc, time.perf_counter())
-        now = time.perf_counter()
-        left = min(t0 + timeout - now for _, _, t0 in running.values())
-        for conn in wait(list(running), timeout=max(left, 0.0)):
-            i, proc, t0 = running.pop(conn)
-            try:
-                res = conn.recv()
-            except EOFError:
-                res = {"status": "crashed", "error": "WorkerDied", "stage": "-"}
-                res["message"] = "the worker process died (out of memory?)"
-                res["time"] = time.perf_counter() - t0
-            conn.close()
-            proc.join()
-            finish(i, res)
-        now = time.perf_counter()
-        for conn, (i, proc, t0) in list(running.items()):
-            if now - t0 >= timeout:
-                proc.kill()
-                proc.join()
-                conn.close()
-                del running[conn]
-                finish(
-                    i,
-                    {
-                        "status": "timeout",
-                        "error": "Timeout",
-                        "stage": "-",
-                        "time": timeout,
-                        "message": "no result within the time limit",
-                    },
-                )
-    return results
+    return run_in_processes(
+        _mesh_vertices,
+        [(np.asarray(p), options) for p in polygons],
+        timeout=timeout,
+        workers=workers,
+        on_timeout=killed,
+        on_died=died,
+        on_result=on_result,
+    )
 
 
 def _subset(items: list, limit: int | None) -> list:
@@ -475,6 +525,219 @@ def run_disk(sizes: tuple[int, ...] = (10, 100, 1000)) -> None:
         )
 
 
+# ----------------------------------------------------------------------------- against Gmsh
+GMSH_SIZE_FRACTION = 1 / 40
+"""Gmsh's target element size as a fraction of the polygon's diameter (``--vs-gmsh``)."""
+
+GMSH_OUTLINES = (
+    "floor_plan",
+    "pixel_contour",
+    "notch_1e-3",
+    "spiky_star_20",
+    "random_star_40",
+    "keyhole",
+    "stroke_half_turn",
+)
+"""Members of :mod:`quadmesh.outlines` in the Gmsh comparison."""
+
+GMSH_FAMILY_MEMBERS = (
+    ("strokes", "S_2"),
+    ("strokes", "zigzag_0"),
+    ("glyphs_stix", "STIXGeneral_A"),
+    ("glyphs_cm", "cmr10_B"),
+    ("images", "coins_1"),
+    ("walks", "walk_2"),
+)
+"""(family, member) pairs of :mod:`quadmesh.families` in the Gmsh comparison."""
+
+
+def gmsh_polygons(lo: int = 6, hi: int = 100) -> list[tuple[str, np.ndarray]]:
+    """The outlines of the Gmsh comparison with lo ≤ n ≤ hi vertices: every bundled example,
+    the :data:`GMSH_OUTLINES` of :func:`quadmesh.outlines.stress_outlines` (seed 0) and the
+    :data:`GMSH_FAMILY_MEMBERS` (skipped when the families' optional packages are missing)."""
+    from .examples import example_names, load_example
+    from .outlines import stress_outlines
+
+    out = [(name, load_example(name)) for name in example_names()]
+    outlines = stress_outlines(0)
+    out += [(name, outlines[name]) for name in GMSH_OUTLINES]
+    try:
+        from .families import FAMILIES
+
+        for fam in dict.fromkeys(f for f, _ in GMSH_FAMILY_MEMBERS):
+            members = {m.name: m.vertices for m in FAMILIES[fam](0)}
+            out += [(f"{fam}/{m}", members[m]) for f, m in GMSH_FAMILY_MEMBERS if f == fam]
+    except ImportError as exc:
+        print(f"note: family members skipped ({exc})")
+    return [(name, np.asarray(v, float)) for name, v in out if lo <= len(v) <= hi]
+
+
+def gmsh_quad_mesh(vertices: np.ndarray, size: float) -> dict:
+    """Mesh the polygon ``vertices`` (n, 2) with Gmsh's quad mesher in this process:
+    frontal-Delaunay for quads (``Mesh.Algorithm`` 8) and Blossom recombination
+    (``Mesh.RecombineAll`` 1, ``Mesh.RecombinationAlgorithm`` 1), element size ``size`` at
+    every polygon vertex and at most ``size`` anywhere. Returns ``nodes`` (N, 2), ``quads``
+    (Q, 4) and ``triangles`` (T, 3) as 0-based node indices (the triangles Gmsh left), and
+    ``time``: seconds of ``gmsh.model.mesh.generate(2)`` alone."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.Verbosity", 0)
+        gmsh.model.add("polygon")
+        geo = gmsh.model.geo
+        pts = [geo.addPoint(float(x), float(y), 0.0, size) for x, y in vertices]
+        lines = [geo.addLine(pts[i], pts[(i + 1) % len(pts)]) for i in range(len(pts))]
+        geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.synchronize()
+        gmsh.option.setNumber("Mesh.Algorithm", 8)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        t0 = time.perf_counter()
+        gmsh.model.mesh.generate(2)
+        seconds = time.perf_counter() - t0
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        index = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(tags.size)
+        nodes = np.asarray(coords, float).reshape(-1, 3)[:, :2]
+        found = {3: np.empty((0, 4), np.int64), 2: np.empty((0, 3), np.int64)}
+        etypes, _, enodes = gmsh.model.mesh.getElements(2)
+        for et, nt in zip(etypes, enodes):
+            k = {2: 3, 3: 4}.get(int(et))
+            if k is None:
+                raise RuntimeError(f"Gmsh produced elements of type {et}")
+            found[int(et)] = index[np.asarray(nt, np.int64)].reshape(-1, k)
+    finally:
+        gmsh.finalize()
+    return {"nodes": nodes, "quads": found[3], "triangles": found[2], "time": seconds}
+
+
+def element_angles(nodes: np.ndarray, elements: np.ndarray) -> np.ndarray:
+    """(E, k) interior angles in degrees of the polygonal elements (E, k) over ``nodes``
+    (N, 2), each element taken counter-clockwise (reversed when its signed area is negative);
+    a reflex corner gets its angle above 180°."""
+    p = nodes[elements]
+    x, y = p[..., 0], p[..., 1]
+    area2 = np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
+    p = np.where((area2 < 0)[:, None, None], p[:, ::-1], p)
+    u = np.roll(p, 1, axis=1) - p  # to the previous corner
+    v = np.roll(p, -1, axis=1) - p  # to the next corner
+    cross = v[..., 0] * u[..., 1] - v[..., 1] * u[..., 0]
+    dot = np.sum(u * v, axis=-1)
+    ang = np.degrees(np.arctan2(cross, dot)) % 360.0
+    return np.where((area2 < 0)[:, None], ang[:, ::-1], ang)
+
+
+def quad_angle_stats(
+    nodes: np.ndarray, quads: np.ndarray, triangles: np.ndarray, polygon: np.ndarray
+) -> dict:
+    """Angle statistics of a mixed quad/triangle mesh of ``polygon`` (n, 2): ``quads``,
+    ``triangles`` (counts), ``share_ok`` (share of quads whose new angles all lie in
+    [60°, 120°] within 1e-5°), ``min`` and ``max`` new quad angle. As for quadmesh's own
+    meshes, a polygon corner below 60° left whole (its node in one element only) is original,
+    not new."""
+    from .mesh import ANGLE_TOL_DEG
+
+    if len(quads) == 0:
+        return {"quads": 0, "triangles": len(triangles), "share_ok": 0.0, "min": None, "max": None}
+    ang = element_angles(nodes, quads)
+    poly = np.asarray(polygon, float)
+    corner_ang = element_angles(poly, np.arange(len(poly))[None, :])[0]
+    diam = float(np.ptp(poly, axis=0).max())
+    d = np.linalg.norm(nodes[:, None, :] - poly[None, :, :], axis=2)
+    at_corner = np.full(len(nodes), -1)
+    near = d.min(axis=1) <= 1e-9 * diam
+    at_corner[near] = d[near].argmin(axis=1)
+    uses = np.bincount(np.concatenate([quads.ravel(), triangles.ravel()]), minlength=len(nodes))
+    c = at_corner[quads]
+    exempt = (c >= 0) & (uses[quads] == 1) & (corner_ang[np.maximum(c, 0)] < 60.0)
+    new = np.where(exempt, np.nan, ang)
+    tol = ANGLE_TOL_DEG
+    ok_corner = exempt | ((ang >= 60.0 - tol) & (ang <= 120.0 + tol))
+    return {
+        "quads": len(quads),
+        "triangles": len(triangles),
+        "share_ok": float(np.mean(np.all(ok_corner, axis=1))),
+        "min": float(np.nanmin(new)),
+        "max": float(np.nanmax(new)),
+    }
+
+
+def run_vs_gmsh(limit: int | None = None) -> list[dict] | None:
+    """Mesh the outlines of :func:`gmsh_polygons` with :func:`~quadmesh.pipeline.mesh_polygon`
+    and with Gmsh (:func:`gmsh_quad_mesh`, element size diameter / 40), at most ``limit`` of
+    them spread over the list, and print per polygon: n, both times and their ratio
+    (quadmesh / Gmsh's ``generate(2)``), both quad counts, Gmsh's leftover triangles, Gmsh's
+    share of quads with every new angle in [60°, 120°], and both meshes' extreme new angles;
+    then the median ratio. Returns the rows, or None (after a one-line message) when Gmsh is
+    not installed."""
+    from .errors import QuadmeshError
+    from .polygon import validate_polygon
+
+    try:
+        import gmsh  # noqa: F401
+    except (ImportError, OSError) as exc:
+        print(
+            f"quadmesh bench --vs-gmsh: Gmsh is not available ({exc}); "
+            "install it with: pip install 'quadmesh[gmsh]'"
+        )
+        return None
+    polys = _subset(gmsh_polygons(), limit)
+    print(
+        f"{'polygon':24s} {'n':>4} {'qm s':>7} {'gmsh s':>7} {'ratio':>6} {'qm quads':>9} "
+        f"{'gmsh quads':>10} {'tris':>5} {'gmsh ok':>8} {'gmsh angles':>17} {'qm angles':>17}"
+    )
+    rows = []
+    for name, verts in polys:
+        poly = validate_polygon(verts)
+        xy = np.column_stack([poly.z.real, poly.z.imag])
+        row: dict = {"name": name, "n": poly.n}
+        g = gmsh_quad_mesh(xy, GMSH_SIZE_FRACTION * poly.diameter)
+        st = quad_angle_stats(g["nodes"], g["quads"], g["triangles"], xy)
+        row.update(gmsh_time=g["time"], gmsh_quads=st["quads"], gmsh_triangles=st["triangles"])
+        row.update(gmsh_share_ok=st["share_ok"], gmsh_min=st["min"], gmsh_max=st["max"])
+        t0 = time.perf_counter()
+        try:
+            r = mesh_polygon(poly)
+        except QuadmeshError as exc:
+            row.update(qm_time=time.perf_counter() - t0, qm_failed=f"{type(exc).__name__}")
+        else:
+            q = r.quality
+            row.update(qm_time=time.perf_counter() - t0, qm_quads=q.n_quads)
+            row.update(qm_min=q.min_angle, qm_max=q.max_angle)
+            row["ratio"] = row["qm_time"] / row["gmsh_time"]
+        rows.append(row)
+        gmin = "-" if st["min"] is None else f"{st['min']:.1f}"
+        gmax = "-" if st["max"] is None else f"{st['max']:.1f}"
+        qm = (
+            f"{row['ratio']:6.0f} {row['qm_quads']:9d}"
+            if "ratio" in row
+            else f"{'-':>6} {row['qm_failed'][:9]:>9}"
+        )
+        qa = f"[{row['qm_min']:.1f}, {row['qm_max']:.1f}]" if "ratio" in row else "-"
+        print(
+            f"{name[:24]:24s} {poly.n:4d} {row['qm_time']:7.2f} {g['time']:7.3f} {qm} "
+            f"{st['quads']:10d} {st['triangles']:5d} {100 * st['share_ok']:7.1f}% "
+            f"{'[' + gmin + ', ' + gmax + ']':>17} {qa:>17}",
+            flush=True,
+        )
+    ratios = [r["ratio"] for r in rows if "ratio" in r]
+    if ratios:
+        share = [r["gmsh_share_ok"] for r in rows]
+        quads = [r["qm_quads"] / max(r["gmsh_quads"], 1) for r in rows if "ratio" in r]
+        print(
+            f"median time ratio quadmesh / Gmsh: {np.median(ratios):.0f} "
+            f"(range {min(ratios):.0f}–{max(ratios):.0f}, {len(ratios)} polygons); "
+            f"median quads quadmesh / Gmsh: "
+            f"{np.median(quads):.1f}; "
+            f"Gmsh quads with all new angles in [60°, 120°]: median {100 * np.median(share):.1f}% "
+            f"(min {100 * min(share):.1f}%)"
+        )
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the benchmark table and the scaling exponents."""
     ap = argparse.ArgumentParser(prog="quadmesh bench", description=__doc__)
@@ -503,10 +766,24 @@ def main(argv: list[str] | None = None) -> int:
         metavar="NAME",
         help="with --families: only this family (repeatable)",
     )
-    ap.add_argument("--limit", type=int, default=None, help="with --families: K per family")
+    ap.add_argument(
+        "--vs-gmsh",
+        action="store_true",
+        help="side by side with Gmsh's quad mesher (Blossom recombination) on outlines of "
+        "6-100 vertices; needs the optional gmsh package",
+    )
+    ap.add_argument(
+        "--limit",
+        type=int,
+        default=None,
+        help="with --families: K per family; with --vs-gmsh: K polygons",
+    )
     ap.add_argument("--timeout", type=float, default=60.0, help="with --families: s per polygon")
     ap.add_argument("--workers", type=int, default=1, help="with --families: worker processes")
     args = ap.parse_args(argv)
+    if args.vs_gmsh:
+        run_vs_gmsh(args.limit)
+        return 0
     if args.families:
         from .families import FAMILIES
 

@@ -8,6 +8,9 @@ Subcommands (``quadmesh <command> --help`` for details):
   (:meth:`quadmesh.mesh.QuadMesh.verify`) and print its report, including the edge lengths
   against the polygon's local feature size (smallest ratio and where, median, shares of
   edges below 1/1000 and 1/50; measured, never a reason to refuse);
+* ``batch DIR -o OUTDIR [--jobs N] [--format F] [--timeout S] [--stats]``: mesh every polygon
+  file of a folder (:func:`quadmesh.batch.mesh_files`), one mesh each, and print a table;
+  exit code 0 if all were meshed, 1 if some were not (listed);
 * ``info POLYGON``: vertex count, area and angle summary of a polygon file;
 * ``disk-demo -o disk.png``: picture of the disk construction (Lemma 2.2).
 """
@@ -24,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputFormatError, MeshVerificationError, PolygonError, QuadmeshError
+from .io import MESH_FORMATS
 from .mesh import ANGLE_TOL_DEG
 
 __all__ = ["EXIT_INPUT", "EXIT_INVALID", "EXIT_OK", "EXIT_STAGE", "build_parser", "main"]
@@ -36,7 +40,8 @@ EXIT_STAGE = 3
 _EPILOG = """\
 exit codes:
   0  success (for check: the mesh is valid and every new angle lies in [60°, 120°])
-  1  the mesh is invalid (check failed, or the mesher's own verification failed)
+  1  the mesh is invalid (check failed, or the mesher's own verification failed);
+     for batch: some files were not meshed (listed at the end)
   2  usage or input error (unreadable file, invalid polygon, bad option value)
   3  a mesher stage failed (decomposition, conformal map, disk construction, thin parts)
 
@@ -98,6 +103,38 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: the mesher's own, 1e-5)",
     )
     p.set_defaults(func=_cmd_check)
+
+    p = _add_command(sub, "batch", "mesh every polygon file of a folder (in parallel with --jobs)")
+    p.add_argument(
+        "inputs",
+        nargs="+",
+        type=Path,
+        metavar="DIR",
+        help="folder of polygon files (.json .geojson .svg .csv .txt ...), or polygon files",
+    )
+    p.add_argument(
+        "-o", "--output", type=Path, required=True, help="folder for the mesh files (created)"
+    )
+    p.add_argument(
+        "-j", "--jobs", type=int, default=1, help="worker processes (default 1: one by one)"
+    )
+    p.add_argument(
+        "--format",
+        default="json",
+        choices=[f[1:] for f in MESH_FORMATS],
+        help="mesh file format (default json)",
+    )
+    p.add_argument(
+        "--timeout",
+        type=float,
+        help="seconds per polygon; a polygon still meshing then is stopped and reported",
+    )
+    p.add_argument(
+        "--stats",
+        action="store_true",
+        help="also print the seconds in the mesher and per stage, per file",
+    )
+    p.set_defaults(func=_cmd_batch)
 
     p = sub.add_parser("info", help="describe a polygon file")
     p.add_argument("polygon", type=Path, help="polygon file")
@@ -198,24 +235,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
 def _check_written(path: Path, result, poly) -> None:
     """Read the written mesh file back; unless it holds exactly the verified coordinates and
     quads, verify what it holds. Raises MeshVerificationError if that fails."""
-    from .io import read_mesh_with_origin
+    from .batch import check_written
 
-    back, origin = read_mesh_with_origin(path)
-    if path.suffix.lower() != ".json":
-        origin = result.mesh_origin
-    mesh = result.mesh
-    if (
-        origin == result.mesh_origin
-        and np.array_equal(back.vertices, mesh.vertices)
-        and np.array_equal(back.quads, mesh.quads)
-    ):
-        return
-    report = back.verify(poly, origin=origin)
-    if not report.ok:
-        raise MeshVerificationError(
-            f"{path}: the coordinates as written fail verification: "
-            + "; ".join(report.problems[:5])
-        )
+    check_written(path, result, poly)
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -229,6 +251,74 @@ def _cmd_check(args: argparse.Namespace) -> int:
     report = mesh.verify(poly, angle_tol=tol, origin=origin)
     print(report.summary())
     return EXIT_OK if report.ok else EXIT_INVALID
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from .batch import format_table, mesh_files, polygon_files
+
+    if args.jobs < 1:
+        raise InputFormatError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.timeout is not None and not args.timeout > 0:
+        raise InputFormatError(f"--timeout must be positive, got {args.timeout}")
+    paths: list[Path] = []
+    for item in args.inputs:
+        if item.is_dir():
+            found = polygon_files(item)
+            if not found:
+                print(f"note: {item} holds no polygon files")
+            paths += found
+        elif item.is_file():
+            paths.append(item)
+        else:
+            raise InputFormatError(f"{item}: no such file or folder")
+    if not paths:
+        raise InputFormatError("no polygon files to mesh")
+    total = len(paths)
+    done = 0
+
+    def report(i: int, r) -> None:
+        nonlocal done
+        done += 1
+        what = f"{r.quads} quads" if r.ok else f"{r.status}: {r.error}"
+        print(f"[{done}/{total}] {r.path.name}: {what} ({r.time:.2f} s)", flush=True)
+
+    t0 = time.perf_counter()
+    results = mesh_files(
+        paths,
+        args.output,
+        jobs=args.jobs,
+        fmt=args.format,
+        timeout=args.timeout,
+        on_result=report,
+    )
+    wall = time.perf_counter() - t0
+    print(format_table(results, stats=args.stats))
+    ok = [r for r in results if r.ok]
+    print(
+        f"meshed {len(ok)} of {total} files into {args.output} in {wall:.2f} s "
+        f"({args.jobs} job{'s' if args.jobs > 1 else ''}; "
+        f"{sum(r.time for r in results):.2f} s summed over the files)"
+    )
+    for r in results:
+        for note in r.notes:
+            print(f"note: {r.path.name}: {note}")
+        if r.origin:
+            where = (
+                'its "origin" field'
+                if args.format == "json"
+                else "this origin (the file format has no place for it)"
+            )
+            print(
+                f"note: {r.output.name}: vertices relative to ({r.origin.real:.17g}, "
+                f"{r.origin.imag:.17g}); add {where} to get absolute positions"
+            )
+    failed = [r for r in results if not r.ok]
+    if failed:
+        print(f"{len(failed)} file{'s' if len(failed) > 1 else ''} not meshed:", file=sys.stderr)
+        for r in failed:
+            print(f"  {r.path}: {r.error}: {r.message}", file=sys.stderr)
+        return EXIT_INVALID
+    return EXIT_OK
 
 
 def _cmd_info(args: argparse.Namespace) -> int:
