@@ -254,6 +254,8 @@ class MainWindow(QMainWindow):
         self.picked_quad: dict[str, Any] | None = None
         self.problem_points = np.zeros(0, dtype=np.complex128)
         self.shortcuts_dialog: QDialog | None = None
+        self.coordinates_dialog: QDialog | None = None
+        self._clean_state: tuple[tuple[complex, ...], bool] = ((), False)
         self.runner = JobRunner(self)
         self.runner.progress.connect(self._on_progress)
         self.runner.finished.connect(self._on_finished)
@@ -467,6 +469,7 @@ class MainWindow(QMainWindow):
     def _build_menus(self) -> None:
         mb = self.menuBar()
         fm = mb.addMenu("&File")
+        self._action(fm, "&New polygon", self.new_polygon, QKeySequence.New)
         self._action(fm, "&Open polygon or mesh…", self._open_dialog, QKeySequence.Open)
         self.recent_menu = fm.addMenu("Open &recent")
         self._fill_recent_menu()
@@ -480,6 +483,8 @@ class MainWindow(QMainWindow):
         self._action(em, "&Redo", self.redo, QKeySequence.Redo)
         self._action(em, "&Delete vertex", self.delete_selected, QKeySequence.Delete)
         self._action(em, "&Clear polygon", self.clear_polygon)
+        em.addSeparator()
+        self._action(em, "&Enter coordinates…", self.enter_coordinates, "Ctrl+K")
         self.examples_menu = mb.addMenu("E&xamples")
         self._fill_examples_menu()
         vm = mb.addMenu("&View")
@@ -509,7 +514,7 @@ class MainWindow(QMainWindow):
             return
         for name in example_names():
             a = QAction(name, self)
-            a.triggered.connect(lambda _=False, n=name: self.load_example(n))
+            a.triggered.connect(lambda _=False, n=name: self._example_chosen(n))
             self.examples_menu.addAction(a)
 
     # ------------------------------------------------------------------ recent files
@@ -548,7 +553,8 @@ class MainWindow(QMainWindow):
             self._fill_recent_menu()
             self._show_error(f"{path} no longer exists; removed it from the recent files")
             return
-        self._guarded(f"opening {Path(path).name}", self.open_file, path)
+        if self.confirm_discard(f"open {Path(path).name}"):
+            self._guarded(f"opening {Path(path).name}", self.open_file, path)
 
     # ------------------------------------------------------------------ help
     def shortcut_table(self) -> list[tuple[str, str]]:
@@ -637,7 +643,67 @@ class MainWindow(QMainWindow):
         from quadmesh.examples import load_example
 
         self.set_polygon(_points_of(load_example(name)))
+        self._mark_clean()
         self.statusBar().showMessage(f"example {name!r} loaded", 5000)
+
+    def _example_chosen(self, name: str) -> None:
+        if self.confirm_discard(f"load the example {name!r}"):
+            self.load_example(name)
+
+    # ------------------------------------------------------------------ unsaved drawings
+    def _mark_clean(self) -> None:
+        """Remember the drawing as saved (or freshly loaded): nothing to lose yet."""
+        self._clean_state = (tuple(self.editor.points), self.editor.closed)
+
+    def has_unsaved_polygon(self) -> bool:
+        """True when the drawing has vertices that were drawn, edited or typed in since the
+        polygon was last loaded or saved."""
+        ed = self.editor
+        return bool(ed.points) and (tuple(ed.points), ed.closed) != self._clean_state
+
+    def confirm_discard(self, action: str) -> bool:
+        """Ask before ``action`` throws away an unsaved drawn polygon; True to go on.
+        Without popups (tests, scripted runs) the answer is yes."""
+        if not self.popups or not self.has_unsaved_polygon():
+            return True
+        n = len(self.editor.points)
+        answer = QMessageBox.question(
+            self,
+            "Discard the drawn polygon?",
+            f"The polygon you drew ({n} vertices) is not saved.\nDiscard it and {action}?",
+            QMessageBox.StandardButton.Discard | QMessageBox.StandardButton.Cancel,
+            QMessageBox.StandardButton.Cancel,
+        )
+        return answer == QMessageBox.StandardButton.Discard
+
+    def new_polygon(self) -> None:
+        """Start an empty drawing in draw mode (asks first over an unsaved drawing)."""
+        if not self.confirm_discard("start a new polygon"):
+            return
+        self.clear_polygon()
+        self._mark_clean()
+        self.set_draw_mode(True)
+
+    def enter_coordinates(self) -> None:
+        """Open the Enter coordinates dialog (typed or pasted vertices); on OK the polygon
+        is replaced by them (asks first over an unsaved drawing)."""
+        from .coords import CoordinatesDialog
+
+        text = "\n".join(f"{p.real:.17g} {p.imag:.17g}" for p in self.editor.points)
+        dlg = CoordinatesDialog(text, parent=self)
+        self.coordinates_dialog = dlg
+
+        def done() -> None:
+            if dlg.vertices is not None and self.confirm_discard("use the typed coordinates"):
+                self.set_coordinates(dlg.vertices)
+
+        dlg.accepted.connect(done)
+        dlg.open()
+
+    def set_coordinates(self, z: np.ndarray) -> None:
+        """Replace the drawing by typed vertices (closed; undoable; unsaved)."""
+        self.set_polygon(np.asarray(z, dtype=np.complex128))
+        self.statusBar().showMessage(f"{len(self.editor.points)} vertices entered", 5000)
 
     def open_polygon(self, path: str | Path) -> None:
         """Read a polygon file (JSON, CSV/TXT, GeoJSON, SVG path) with quadmesh.io."""
@@ -645,6 +711,7 @@ class MainWindow(QMainWindow):
 
         vertices, notes = read_polygon(path)
         self.set_polygon(_points_of(vertices))
+        self._mark_clean()
         self.statusBar().showMessage("; ".join([f"opened {path}", *notes]), 8000)
 
     def open_file(self, path: str | Path) -> None:
@@ -678,6 +745,7 @@ class MainWindow(QMainWindow):
         self._drop_result("")
         self._clear_error()
         self._refresh_polygon()
+        self._mark_clean()
         quality = mesh.quality()
         # the result-like object the layer builders of quadmesh.render need
         loaded = SimpleNamespace(mesh=mesh, polygon=None, quality=quality, origin=0j)
@@ -1391,6 +1459,8 @@ class MainWindow(QMainWindow):
         return True
 
     def _open_dialog(self) -> None:
+        if not self.confirm_discard("open another file"):
+            return
         p = self._file_dialog(False, "Open polygon or mesh", _OPEN_FILTERS)
         if p:
             self._guarded(f"opening {Path(p).name}", self.open_file, p)
@@ -1398,6 +1468,7 @@ class MainWindow(QMainWindow):
     def _save_dialog(self) -> None:
         p = self._file_dialog(True, "Save polygon", "JSON (*.json)")
         if p and self._guarded("saving the polygon", self.save_polygon, p):
+            self._mark_clean()
             self.statusBar().showMessage(
                 f"polygon saved: {len(self.editor.points)} vertices → {p}", 10000
             )
