@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
     QDoubleSpinBox,
     QFileDialog,
     QFormLayout,
+    QGridLayout,
     QHBoxLayout,
     QLabel,
     QLineEdit,
@@ -332,8 +333,8 @@ class MainWindow(QMainWindow):
             self.layer_panel.set_swatch(name, color)
         self.legend = LegendPanel()
         self.layer_panel.layout().insertWidget(self.layer_panel.layout().count() - 1, self.legend)
-        self.layer_panel.setMaximumWidth(270)
-        self._add_dock("Layers", self.layer_panel, Qt.LeftDockWidgetArea)
+        self.layer_scroll = _scrolled(self.layer_panel, 270)
+        self._add_dock("Layers", self.layer_scroll, Qt.LeftDockWidgetArea)
 
         # drawing
         draw = QWidget()
@@ -353,22 +354,24 @@ class MainWindow(QMainWindow):
         self.grid_spin.setValue(self.editor.grid)
         self.grid_spin.valueChanged.connect(lambda g: self.set_snap(self.editor.snap, g))
         f.addRow(self.snap_check, self.grid_spin)
-        row = QHBoxLayout()
+        row = QGridLayout()
         self.draw_buttons: dict[str, QPushButton] = {}
-        for text, slot in (
-            ("Undo", self.undo),
-            ("Redo", self.redo),
-            ("Delete", self.delete_selected),
-            ("Clear", self.clear_polygon),
+        for k, (text, slot) in enumerate(
+            (
+                ("Undo", self.undo),
+                ("Redo", self.redo),
+                ("Delete", self.delete_selected),
+                ("Clear", self.clear_polygon),
+            )
         ):
             b = QPushButton(text)
             b.setObjectName(f"{text.lower()}_button")
             _on_click(b, slot)
             self.draw_buttons[text.lower()] = b
-            row.addWidget(b)
+            row.addWidget(b, k // 2, k % 2)
         f.addRow(row)
-        draw.setMaximumWidth(270)
-        self._add_dock("Draw", draw, Qt.LeftDockWidgetArea)
+        self.draw_scroll = _scrolled(draw, 270)
+        self._add_dock("Draw", self.draw_scroll, Qt.LeftDockWidgetArea)
 
         # mesh parameters and progress
         mesh = QWidget()
@@ -427,8 +430,8 @@ class MainWindow(QMainWindow):
         # the whole message of the last failure, wrapped and scrollable (hidden when none)
         self.error_box = ErrorBox()
         mf.addRow(self.error_box)
-        mesh.setMaximumWidth(290)
-        mesh_dock = self._add_dock("Mesh", mesh, Qt.RightDockWidgetArea)
+        self.mesh_scroll = _scrolled(mesh, 290)
+        mesh_dock = self._add_dock("Mesh", self.mesh_scroll, Qt.RightDockWidgetArea)
 
         # information
         info = QWidget()
@@ -449,14 +452,9 @@ class MainWindow(QMainWindow):
         self.histogram = AngleHistogram()
         il.addWidget(self.histogram)
         il.addStretch(1)
-        scroll = QScrollArea()
-        scroll.setWidget(info)
-        scroll.setWidgetResizable(True)
-        scroll.setFrameShape(QScrollArea.NoFrame)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
-        scroll.setMaximumWidth(300)
+        scroll = self.info_scroll = _scrolled(info, 300)
         info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
-        self.resizeDocks([mesh_dock, info_dock], [300, 700], Qt.Vertical)
+        self.resizeDocks([mesh_dock, info_dock], [mesh.sizeHint().height(), 400], Qt.Vertical)
 
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
         d = QDockWidget(title, self)
@@ -1523,6 +1521,21 @@ _EXPORT_FILTERS = (
     "JSON (*.json);;VTK (*.vtk);;VTK XML (*.vtu);;Gmsh 2.2 (*.msh);;Wavefront (*.obj)"
     ";;Stanford PLY (*.ply);;Medit (*.mesh)"
 )
+
+
+def _scrolled(widget: QWidget, max_width: int) -> QScrollArea:
+    """``widget`` in a frameless vertical scroll area at most ``max_width`` pixels wide, so
+    that a dock's contents stay reachable in a small window (they scroll instead of being
+    squeezed or cut off)."""
+    scroll = QScrollArea()
+    scroll.setWidget(widget)
+    scroll.setWidgetResizable(True)
+    scroll.setFrameShape(QScrollArea.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
+    scroll.setMaximumWidth(max_width)
+    bar = scroll.verticalScrollBar().sizeHint().width()
+    scroll.setMinimumWidth(min(max_width, widget.minimumSizeHint().width() + bar))
+    return scroll
 
 
 def with_filter_suffix(path: str, name_filter: str) -> str:

@@ -1,0 +1,70 @@
+"""The app at 1024×700 (a small laptop screen): docks scroll instead of cutting controls off
+(run under ``xvfb-run``)."""
+
+from __future__ import annotations
+
+import pytest
+from PySide6.QtWidgets import QDockWidget, QWidget
+
+from tests.helpers import L_SHAPE
+
+pytestmark = pytest.mark.gui
+
+
+def _reachable(win, scroll, w: QWidget) -> bool:
+    """Scroll ``scroll`` to ``w``; then ``w`` must be shown, inside the dock's viewport and
+    inside the window."""
+    scroll.ensureWidgetVisible(w, 0, 0)
+    if not w.isVisibleTo(win) or w.visibleRegion().isEmpty():
+        return False
+    top_left = w.mapTo(win, w.rect().topLeft())
+    bottom_right = w.mapTo(win, w.rect().bottomRight())
+    vp = scroll.viewport()
+    vp_tl = vp.mapTo(win, vp.rect().topLeft())
+    vp_br = vp.mapTo(win, vp.rect().bottomRight())
+    return (
+        win.rect().contains(top_left)
+        and win.rect().contains(bottom_right)
+        and vp_tl.y() <= top_left.y()
+        and bottom_right.y() <= vp_br.y()
+    )
+
+
+def test_every_mesh_control_reachable_at_1024x700(main_window, qtbot):
+    win = main_window
+    win.resize(1024, 700)
+    qtbot.waitUntil(lambda: win.width() == 1024 and win.height() == 700, timeout=3000)
+    qtbot.wait(50)
+    controls = [
+        *win.option_widgets.values(),
+        win.mesh_button,
+        win.cancel_button,
+        win.progress_bar,
+    ]
+    # the Mesh panel's contents are taller than its share of 700 px: it scrolls
+    assert win.mesh_scroll.verticalScrollBar().maximum() > 0
+    for c in controls:
+        assert _reachable(win, win.mesh_scroll, c), f"{c.objectName() or c} not reachable"
+        label = win.mesh_scroll.widget().layout().labelForField(c)
+        if label is not None:
+            assert _reachable(win, win.mesh_scroll, label)
+    # the Mesh button is usable after scrolling to it
+    win.set_polygon(L_SHAPE)
+    assert win.mesh_button.isEnabled()
+    # every layer checkbox and the draw controls too
+    for cb in win.layer_panel.checkboxes.values():
+        assert _reachable(win, win.layer_scroll, cb), cb.text()
+    assert _reachable(win, win.layer_scroll, win.layer_panel.color_mode)
+    for b in (win.draw_check, win.snap_check, *win.draw_buttons.values()):
+        assert _reachable(win, win.draw_scroll, b), b.text()
+    assert _reachable(win, win.info_scroll, win.histogram)
+    # no dock wider than the window; the two views keep a usable size
+    docks = win.findChildren(QDockWidget)
+    assert len(docks) == 4
+    for d in docks:
+        assert d.isVisible() and d.width() < win.width() // 3, (d.windowTitle(), d.width())
+    for view in (win.plane, win.disk):
+        assert view.plotter.width() >= 180 and view.plotter.height() >= 300
+    # nothing squeezed sideways: a control is as wide as it asks to be at least
+    for c in controls:
+        assert c.width() >= c.minimumSizeHint().width()
