@@ -436,6 +436,10 @@ class MainWindow(QMainWindow):
         # information
         info = QWidget()
         il = QVBoxLayout(info)
+        # the histogram first: it stays in view without scrolling however long the table is
+        il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
+        self.histogram = AngleHistogram()
+        il.addWidget(self.histogram)
         self.info_label = QLabel("no mesh yet")
         self.info_label.setObjectName("info_label")
         self.info_label.setTextFormat(Qt.RichText)
@@ -448,9 +452,6 @@ class MainWindow(QMainWindow):
         self.quad_label.setWordWrap(True)
         self.quad_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
         il.addWidget(self.quad_label)
-        il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
-        self.histogram = AngleHistogram()
-        il.addWidget(self.histogram)
         il.addStretch(1)
         scroll = self.info_scroll = _scrolled(info, 300)
         info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
@@ -614,11 +615,25 @@ class MainWindow(QMainWindow):
     def _put(self, view: View2D, name: str, geometry: LayerGeometry | None) -> None:
         """Set a layer's geometry and show its flat colour on the layer panel's swatch."""
         view.set_layer(name, geometry)
+        if view is self.plane and name in ("polygon", "final_mesh"):
+            self._update_fill()
         st = view.layers[name]
         if geometry is not None and st.color is None:
             flat = [p.color for p in geometry.parts if p.scalars is None and p.color]
             if flat and name in LAYER_COLORS:
                 self.layer_panel.set_swatch(name, LAYER_COLORS[name])
+
+    def _update_fill(self) -> None:
+        """Show the polygon's light fill only while no final mesh is on screen: drawn over the
+        mesh it would wash out the mesh's angle colours."""
+        st = self.plane.layers.get("polygon")
+        fm = self.plane.layers.get("final_mesh")
+        if st is None or st.geometry is None:
+            return
+        mesh_on = fm is not None and fm.visible and fm.geometry is not None
+        for part, actor in zip(View2D._drawn_parts(st), st.actors, strict=True):
+            if part.label == "fill":
+                actor.SetVisibility(st.visible and not mesh_on)
 
     def _view(self, view: str) -> View2D:
         return self.plane if view == "plane" else self.disk
@@ -1224,6 +1239,7 @@ class MainWindow(QMainWindow):
         self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
+        self._update_fill()
         self.info_label.setText(why)
         self.histogram.clear()
         self.progress_bar.setValue(0)
@@ -1294,6 +1310,8 @@ class MainWindow(QMainWindow):
     def _on_layer_toggled(self, view: str, name: str, on: bool) -> None:
         v = self._view(view)
         v.set_visible(name, on)
+        if view == "plane" and name in ("polygon", "final_mesh"):
+            self._update_fill()
         self._refresh_legend()
         v.render()
 

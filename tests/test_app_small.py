@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
+from PySide6.QtCore import QRectF
 from PySide6.QtWidgets import QDockWidget, QWidget
 
 from tests.helpers import L_SHAPE
@@ -68,3 +70,51 @@ def test_every_mesh_control_reachable_at_1024x700(main_window, qtbot):
     # nothing squeezed sideways: a control is as wide as it asks to be at least
     for c in controls:
         assert c.width() >= c.minimumSizeHint().width()
+
+
+def _fill_actor(win):
+    st = win.plane.layers["polygon"]
+    parts = [p for p in st.geometry.parts if p.mesh.n_points > 0]
+    return next(a for p, a in zip(parts, st.actors, strict=True) if p.label == "fill")
+
+
+def test_fill_never_covers_the_mesh_and_histogram_labels_every_bin(main_window, qtbot):
+    """The polygon's fill is hidden while the final mesh is on screen (it would wash out the
+    angle colours) and back when the mesh layer is off; the histogram, at 1024×700, is in view
+    without scrolling and labels every non-empty bin with its count, all inside the widget."""
+    from tests.test_app import mesh_l_shape, tick
+
+    win = main_window
+    win.resize(1024, 700)
+    qtbot.waitUntil(lambda: win.height() == 700, timeout=3000)
+    win.set_polygon(L_SHAPE)
+    assert _fill_actor(win).GetVisibility()  # a polygon alone: filled
+    win.mesh_scroll.ensureWidgetVisible(win.mesh_button)  # the user scrolls to Mesh
+    mesh_l_shape(win, qtbot)
+    assert win.plane.layers["final_mesh"].visible
+    assert not _fill_actor(win).GetVisibility()
+    cb = win.layer_panel.checkboxes["final_mesh"]
+    win.layer_scroll.ensureWidgetVisible(cb)
+    tick(qtbot, cb)
+    assert not win.plane.layers["final_mesh"].visible and _fill_actor(win).GetVisibility()
+    tick(qtbot, cb)
+    assert not _fill_actor(win).GetVisibility()
+    # histogram: visible without scrolling, one count label per non-empty bin
+    h = win.histogram
+    assert win.info_scroll.verticalScrollBar().value() == 0
+    top = h.mapTo(win.info_scroll.viewport(), h.rect().topLeft())
+    assert top.y() >= 0 and top.y() + h.height() <= win.info_scroll.viewport().height()
+    counts = win.result.quality.histogram
+    nonzero = np.flatnonzero(counts)
+    assert nonzero.size >= 3 and np.array_equal(h.counts, counts)
+    labels = h.labels()
+    count_texts = [t for t, _ in labels if not t.endswith("°")]
+    assert count_texts == [str(int(counts[k])) for k in nonzero]
+    assert {t for t, _ in labels if t.endswith("°")} == {"0°", "60°", "90°", "120°", "180°"}
+    box = QRectF(h.rect())
+    for text, r in labels:
+        assert box.contains(r), f"label {text!r} at {r} is cut off ({h.width()}×{h.height()})"
+    bars = dict(h.bars())
+    for (text, r), k in zip([lb for lb in labels if not lb[0].endswith("°")], nonzero, strict=True):
+        assert r.bottom() <= bars[k].top() + 1e-9  # above its own bar
+        assert abs(r.center().x() - bars[k].center().x()) < 1e-6
