@@ -115,6 +115,8 @@ def test_fill_never_covers_the_mesh_and_histogram_labels_every_bin(main_window, 
     for text, r in labels:
         assert box.contains(r), f"label {text!r} at {r} is cut off ({h.width()}×{h.height()})"
     bars = dict(h.bars())
-    for (text, r), k in zip([lb for lb in labels if not lb[0].endswith("°")], nonzero, strict=True):
+    for (_text, r), k in zip(
+        [lb for lb in labels if not lb[0].endswith("°")], nonzero, strict=True
+    ):
         assert r.bottom() <= bars[k].top() + 1e-9  # above its own bar
         assert abs(r.center().x() - bars[k].center().x()) < 1e-6
