@@ -257,6 +257,7 @@ class MainWindow(QMainWindow):
         self.shortcuts_dialog: QDialog | None = None
         self.coordinates_dialog: QDialog | None = None
         self._clean_state: tuple[tuple[complex, ...], bool] = ((), False)
+        self._mesh_layer_cache: dict[Any, Any] = {}
         self.runner = JobRunner(self)
         self.runner.progress.connect(self._on_progress)
         self.runner.finished.connect(self._on_finished)
@@ -1252,8 +1253,20 @@ class MainWindow(QMainWindow):
         self.color_mode = mode
         shown = self.result if self.result is not None else self._loaded
         if shown is not None:
-            self._put(self.plane, "final_mesh", build_layer(shown, "final_mesh", color_by=mode))
+            self._put(self.plane, "final_mesh", self._mesh_layer(shown, mode))
             self.plane.render()
+
+    def _mesh_layer(self, shown: Any, mode: str) -> LayerGeometry:
+        """The final-mesh layer of ``shown`` coloured by ``mode``, built once per result and
+        colouring (switching back and forth only re-adds the built geometry)."""
+        key = (id(shown), mode)
+        cache = self._mesh_layer_cache
+        if cache.get("owner") is not shown:
+            cache.clear()
+            cache["owner"] = shown
+        if key not in cache:
+            cache[key] = build_layer(shown, "final_mesh", color_by=mode)
+        return cache[key]
 
     def _on_piece_changed(self, k: int) -> None:
         self.disk_piece = k
