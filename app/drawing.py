@@ -15,7 +15,7 @@ import shapely
 from quadmesh.errors import PolygonError
 from quadmesh.polygon import validate_polygon
 
-__all__ = ["PolygonEditor"]
+__all__ = ["PolygonEditor", "parse_coordinates"]
 
 
 @dataclass
@@ -179,3 +179,62 @@ class PolygonEditor:
             if not shapely.LineString(xy).is_simple:
                 return "the drawn outline crosses itself"
         return None
+
+
+def parse_coordinates(text: str) -> np.ndarray:
+    """The vertices typed or pasted as text, as a complex array.
+
+    Accepted: one vertex per line as ``x y``, ``x, y`` or ``x; y`` (blank lines and lines
+    starting with ``#`` are skipped), or a JSON list of ``[x, y]`` pairs (also under a
+    ``"vertices"`` key of a JSON object).  A repeated first vertex at the end is dropped.
+
+    Raises:
+        ValueError: naming the line (1-based) or the JSON item that is no pair of numbers,
+            or when fewer than three vertices are given.
+    """
+    import json
+
+    s = text.strip()
+    pts: list[complex] = []
+    if s.startswith(("[", "{")):
+        try:
+            data = json.loads(s)
+        except json.JSONDecodeError as exc:
+            raise ValueError(
+                f"the text looks like JSON but is not: {exc.msg} "
+                f"(line {exc.lineno}, column {exc.colno})"
+            ) from None
+        if isinstance(data, dict):
+            data = data.get("vertices")
+        if not isinstance(data, list):
+            raise ValueError('JSON must be a list of [x, y] pairs or {"vertices": [...]}')
+        for k, item in enumerate(data):
+            if (
+                not isinstance(item, list | tuple)
+                or len(item) != 2
+                or not all(isinstance(c, int | float) and not isinstance(c, bool) for c in item)
+            ):
+                raise ValueError(f"JSON item {k} ({item!r}) is not a pair of numbers [x, y]")
+            pts.append(complex(float(item[0]), float(item[1])))
+    else:
+        for lineno, line in enumerate(text.splitlines(), start=1):
+            line = line.strip()
+            if not line or line.startswith("#"):
+                continue
+            fields = [f for f in line.replace(",", " ").replace(";", " ").split() if f]
+            try:
+                if len(fields) != 2:
+                    raise ValueError
+                x, y = float(fields[0]), float(fields[1])
+            except ValueError:
+                raise ValueError(
+                    f"line {lineno} ({line!r}) is not two numbers 'x y' or 'x, y'"
+                ) from None
+            if not (np.isfinite(x) and np.isfinite(y)):
+                raise ValueError(f"line {lineno} ({line!r}) has a coordinate that is not finite")
+            pts.append(complex(x, y))
+    if len(pts) > 3 and pts[0] == pts[-1]:
+        pts.pop()
+    if len(pts) < 3:
+        raise ValueError(f"a polygon needs at least 3 vertices; the text gives {len(pts)}")
+    return np.asarray(pts, dtype=np.complex128)

@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
     QDoubleSpinBox,
     QFileDialog,
     QFormLayout,
+    QGridLayout,
     QHBoxLayout,
     QLabel,
     QLineEdit,
@@ -254,6 +255,9 @@ class MainWindow(QMainWindow):
         self.picked_quad: dict[str, Any] | None = None
         self.problem_points = np.zeros(0, dtype=np.complex128)
         self.shortcuts_dialog: QDialog | None = None
+        self.coordinates_dialog: QDialog | None = None
+        self._clean_state: tuple[tuple[complex, ...], bool] = ((), False)
+        self._mesh_layer_cache: dict[Any, Any] = {}
         self.runner = JobRunner(self)
         self.runner.progress.connect(self._on_progress)
         self.runner.finished.connect(self._on_finished)
@@ -330,8 +334,8 @@ class MainWindow(QMainWindow):
             self.layer_panel.set_swatch(name, color)
         self.legend = LegendPanel()
         self.layer_panel.layout().insertWidget(self.layer_panel.layout().count() - 1, self.legend)
-        self.layer_panel.setMaximumWidth(270)
-        self._add_dock("Layers", self.layer_panel, Qt.LeftDockWidgetArea)
+        self.layer_scroll = _scrolled(self.layer_panel, 270)
+        self._add_dock("Layers", self.layer_scroll, Qt.LeftDockWidgetArea)
 
         # drawing
         draw = QWidget()
@@ -351,22 +355,24 @@ class MainWindow(QMainWindow):
         self.grid_spin.setValue(self.editor.grid)
         self.grid_spin.valueChanged.connect(lambda g: self.set_snap(self.editor.snap, g))
         f.addRow(self.snap_check, self.grid_spin)
-        row = QHBoxLayout()
+        row = QGridLayout()
         self.draw_buttons: dict[str, QPushButton] = {}
-        for text, slot in (
-            ("Undo", self.undo),
-            ("Redo", self.redo),
-            ("Delete", self.delete_selected),
-            ("Clear", self.clear_polygon),
+        for k, (text, slot) in enumerate(
+            (
+                ("Undo", self.undo),
+                ("Redo", self.redo),
+                ("Delete", self.delete_selected),
+                ("Clear", self.clear_polygon),
+            )
         ):
             b = QPushButton(text)
             b.setObjectName(f"{text.lower()}_button")
             _on_click(b, slot)
             self.draw_buttons[text.lower()] = b
-            row.addWidget(b)
+            row.addWidget(b, k // 2, k % 2)
         f.addRow(row)
-        draw.setMaximumWidth(270)
-        self._add_dock("Draw", draw, Qt.LeftDockWidgetArea)
+        self.draw_scroll = _scrolled(draw, 270)
+        self._add_dock("Draw", self.draw_scroll, Qt.LeftDockWidgetArea)
 
         # mesh parameters and progress
         mesh = QWidget()
@@ -425,12 +431,16 @@ class MainWindow(QMainWindow):
         # the whole message of the last failure, wrapped and scrollable (hidden when none)
         self.error_box = ErrorBox()
         mf.addRow(self.error_box)
-        mesh.setMaximumWidth(290)
-        mesh_dock = self._add_dock("Mesh", mesh, Qt.RightDockWidgetArea)
+        self.mesh_scroll = _scrolled(mesh, 290)
+        mesh_dock = self._add_dock("Mesh", self.mesh_scroll, Qt.RightDockWidgetArea)
 
         # information
         info = QWidget()
         il = QVBoxLayout(info)
+        # the histogram first: it stays in view without scrolling however long the table is
+        il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
+        self.histogram = AngleHistogram()
+        il.addWidget(self.histogram)
         self.info_label = QLabel("no mesh yet")
         self.info_label.setObjectName("info_label")
         self.info_label.setTextFormat(Qt.RichText)
@@ -443,18 +453,10 @@ class MainWindow(QMainWindow):
         self.quad_label.setWordWrap(True)
         self.quad_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
         il.addWidget(self.quad_label)
-        il.addWidget(QLabel("new angles (green band: [60°, 120°])"))
-        self.histogram = AngleHistogram()
-        il.addWidget(self.histogram)
         il.addStretch(1)
-        scroll = QScrollArea()
-        scroll.setWidget(info)
-        scroll.setWidgetResizable(True)
-        scroll.setFrameShape(QScrollArea.NoFrame)
-        scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
-        scroll.setMaximumWidth(300)
+        scroll = self.info_scroll = _scrolled(info, 300)
         info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
-        self.resizeDocks([mesh_dock, info_dock], [300, 700], Qt.Vertical)
+        self.resizeDocks([mesh_dock, info_dock], [mesh.sizeHint().height(), 400], Qt.Vertical)
 
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
         d = QDockWidget(title, self)
@@ -467,6 +469,7 @@ class MainWindow(QMainWindow):
     def _build_menus(self) -> None:
         mb = self.menuBar()
         fm = mb.addMenu("&File")
+        self._action(fm, "&New polygon", self.new_polygon, QKeySequence.New)
         self._action(fm, "&Open polygon or mesh…", self._open_dialog, QKeySequence.Open)
         self.recent_menu = fm.addMenu("Open &recent")
         self._fill_recent_menu()
@@ -480,6 +483,8 @@ class MainWindow(QMainWindow):
         self._action(em, "&Redo", self.redo, QKeySequence.Redo)
         self._action(em, "&Delete vertex", self.delete_selected, QKeySequence.Delete)
         self._action(em, "&Clear polygon", self.clear_polygon)
+        em.addSeparator()
+        self._action(em, "&Enter coordinates…", self.enter_coordinates, "Ctrl+K")
         self.examples_menu = mb.addMenu("E&xamples")
         self._fill_examples_menu()
         vm = mb.addMenu("&View")
@@ -509,7 +514,7 @@ class MainWindow(QMainWindow):
             return
         for name in example_names():
             a = QAction(name, self)
-            a.triggered.connect(lambda _=False, n=name: self.load_example(n))
+            a.triggered.connect(lambda _=False, n=name: self._example_chosen(n))
             self.examples_menu.addAction(a)
 
     # ------------------------------------------------------------------ recent files
@@ -548,7 +553,8 @@ class MainWindow(QMainWindow):
             self._fill_recent_menu()
             self._show_error(f"{path} no longer exists; removed it from the recent files")
             return
-        self._guarded(f"opening {Path(path).name}", self.open_file, path)
+        if self.confirm_discard(f"open {Path(path).name}"):
+            self._guarded(f"opening {Path(path).name}", self.open_file, path)
 
     # ------------------------------------------------------------------ help
     def shortcut_table(self) -> list[tuple[str, str]]:
@@ -610,11 +616,25 @@ class MainWindow(QMainWindow):
     def _put(self, view: View2D, name: str, geometry: LayerGeometry | None) -> None:
         """Set a layer's geometry and show its flat colour on the layer panel's swatch."""
         view.set_layer(name, geometry)
+        if view is self.plane and name in ("polygon", "final_mesh"):
+            self._update_fill()
         st = view.layers[name]
         if geometry is not None and st.color is None:
             flat = [p.color for p in geometry.parts if p.scalars is None and p.color]
             if flat and name in LAYER_COLORS:
                 self.layer_panel.set_swatch(name, LAYER_COLORS[name])
+
+    def _update_fill(self) -> None:
+        """Show the polygon's light fill only while no final mesh is on screen: drawn over the
+        mesh it would wash out the mesh's angle colours."""
+        st = self.plane.layers.get("polygon")
+        fm = self.plane.layers.get("final_mesh")
+        if st is None or st.geometry is None:
+            return
+        mesh_on = fm is not None and fm.visible and fm.geometry is not None
+        for part, actor in zip(View2D._drawn_parts(st), st.actors, strict=True):
+            if part.label == "fill":
+                actor.SetVisibility(st.visible and not mesh_on)
 
     def _view(self, view: str) -> View2D:
         return self.plane if view == "plane" else self.disk
@@ -637,7 +657,67 @@ class MainWindow(QMainWindow):
         from quadmesh.examples import load_example
 
         self.set_polygon(_points_of(load_example(name)))
+        self._mark_clean()
         self.statusBar().showMessage(f"example {name!r} loaded", 5000)
+
+    def _example_chosen(self, name: str) -> None:
+        if self.confirm_discard(f"load the example {name!r}"):
+            self.load_example(name)
+
+    # ------------------------------------------------------------------ unsaved drawings
+    def _mark_clean(self) -> None:
+        """Remember the drawing as saved (or freshly loaded): nothing to lose yet."""
+        self._clean_state = (tuple(self.editor.points), self.editor.closed)
+
+    def has_unsaved_polygon(self) -> bool:
+        """True when the drawing has vertices that were drawn, edited or typed in since the
+        polygon was last loaded or saved."""
+        ed = self.editor
+        return bool(ed.points) and (tuple(ed.points), ed.closed) != self._clean_state
+
+    def confirm_discard(self, action: str) -> bool:
+        """Ask before ``action`` throws away an unsaved drawn polygon; True to go on.
+        Without popups (tests, scripted runs) the answer is yes."""
+        if not self.popups or not self.has_unsaved_polygon():
+            return True
+        n = len(self.editor.points)
+        answer = QMessageBox.question(
+            self,
+            "Discard the drawn polygon?",
+            f"The polygon you drew ({n} vertices) is not saved.\nDiscard it and {action}?",
+            QMessageBox.StandardButton.Discard | QMessageBox.StandardButton.Cancel,
+            QMessageBox.StandardButton.Cancel,
+        )
+        return answer == QMessageBox.StandardButton.Discard
+
+    def new_polygon(self) -> None:
+        """Start an empty drawing in draw mode (asks first over an unsaved drawing)."""
+        if not self.confirm_discard("start a new polygon"):
+            return
+        self.clear_polygon()
+        self._mark_clean()
+        self.set_draw_mode(True)
+
+    def enter_coordinates(self) -> None:
+        """Open the Enter coordinates dialog (typed or pasted vertices); on OK the polygon
+        is replaced by them (asks first over an unsaved drawing)."""
+        from .coords import CoordinatesDialog
+
+        text = "\n".join(f"{p.real:.17g} {p.imag:.17g}" for p in self.editor.points)
+        dlg = CoordinatesDialog(text, parent=self)
+        self.coordinates_dialog = dlg
+
+        def done() -> None:
+            if dlg.vertices is not None and self.confirm_discard("use the typed coordinates"):
+                self.set_coordinates(dlg.vertices)
+
+        dlg.accepted.connect(done)
+        dlg.open()
+
+    def set_coordinates(self, z: np.ndarray) -> None:
+        """Replace the drawing by typed vertices (closed; undoable; unsaved)."""
+        self.set_polygon(np.asarray(z, dtype=np.complex128))
+        self.statusBar().showMessage(f"{len(self.editor.points)} vertices entered", 5000)
 
     def open_polygon(self, path: str | Path) -> None:
         """Read a polygon file (JSON, CSV/TXT, GeoJSON, SVG path) with quadmesh.io."""
@@ -645,6 +725,7 @@ class MainWindow(QMainWindow):
 
         vertices, notes = read_polygon(path)
         self.set_polygon(_points_of(vertices))
+        self._mark_clean()
         self.statusBar().showMessage("; ".join([f"opened {path}", *notes]), 8000)
 
     def open_file(self, path: str | Path) -> None:
@@ -678,6 +759,7 @@ class MainWindow(QMainWindow):
         self._drop_result("")
         self._clear_error()
         self._refresh_polygon()
+        self._mark_clean()
         quality = mesh.quality()
         # the result-like object the layer builders of quadmesh.render need
         loaded = SimpleNamespace(mesh=mesh, polygon=None, quality=quality, origin=0j)
@@ -1158,6 +1240,7 @@ class MainWindow(QMainWindow):
         self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
+        self._update_fill()
         self.info_label.setText(why)
         self.histogram.clear()
         self.progress_bar.setValue(0)
@@ -1170,8 +1253,20 @@ class MainWindow(QMainWindow):
         self.color_mode = mode
         shown = self.result if self.result is not None else self._loaded
         if shown is not None:
-            self._put(self.plane, "final_mesh", build_layer(shown, "final_mesh", color_by=mode))
+            self._put(self.plane, "final_mesh", self._mesh_layer(shown, mode))
             self.plane.render()
+
+    def _mesh_layer(self, shown: Any, mode: str) -> LayerGeometry:
+        """The final-mesh layer of ``shown`` coloured by ``mode``, built once per result and
+        colouring (switching back and forth only re-adds the built geometry)."""
+        key = (id(shown), mode)
+        cache = self._mesh_layer_cache
+        if cache.get("owner") is not shown:
+            cache.clear()
+            cache["owner"] = shown
+        if key not in cache:
+            cache[key] = build_layer(shown, "final_mesh", color_by=mode)
+        return cache[key]
 
     def _on_piece_changed(self, k: int) -> None:
         self.disk_piece = k
@@ -1228,6 +1323,8 @@ class MainWindow(QMainWindow):
     def _on_layer_toggled(self, view: str, name: str, on: bool) -> None:
         v = self._view(view)
         v.set_visible(name, on)
+        if view == "plane" and name in ("polygon", "final_mesh"):
+            self._update_fill()
         self._refresh_legend()
         v.render()
 
@@ -1391,6 +1488,8 @@ class MainWindow(QMainWindow):
         return True
 
     def _open_dialog(self) -> None:
+        if not self.confirm_discard("open another file"):
+            return
         p = self._file_dialog(False, "Open polygon or mesh", _OPEN_FILTERS)
         if p:
             self._guarded(f"opening {Path(p).name}", self.open_file, p)
@@ -1398,6 +1497,7 @@ class MainWindow(QMainWindow):
     def _save_dialog(self) -> None:
         p = self._file_dialog(True, "Save polygon", "JSON (*.json)")
         if p and self._guarded("saving the polygon", self.save_polygon, p):
+            self._mark_clean()
             self.statusBar().showMessage(
                 f"polygon saved: {len(self.editor.points)} vertices → {p}", 10000
             )
@@ -1452,6 +1552,21 @@ _EXPORT_FILTERS = (
     "JSON (*.json);;VTK (*.vtk);;VTK XML (*.vtu);;Gmsh 2.2 (*.msh);;Wavefront (*.obj)"
     ";;Stanford PLY (*.ply);;Medit (*.mesh)"
 )
+
+
+def _scrolled(widget: QWidget, max_width: int) -> QScrollArea:
+    """``widget`` in a frameless vertical scroll area at most ``max_width`` pixels wide, so
+    that a dock's contents stay reachable in a small window (they scroll instead of being
+    squeezed or cut off)."""
+    scroll = QScrollArea()
+    scroll.setWidget(widget)
+    scroll.setWidgetResizable(True)
+    scroll.setFrameShape(QScrollArea.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarAlwaysOff)
+    scroll.setMaximumWidth(max_width)
+    bar = scroll.verticalScrollBar().sizeHint().width()
+    scroll.setMinimumWidth(min(max_width, widget.minimumSizeHint().width() + bar))
+    return scroll
 
 
 def with_filter_suffix(path: str, name_filter: str) -> str:

@@ -1,0 +1,114 @@
+"""Interactivity of quadmesh-app on big meshes: wall-clock time of the GUI operations a user
+repeats (run under an X server, e.g. ``xvfb-run``; not a test)::
+
+    PYTHONPATH=. xvfb-run -a -s "-screen 0 1280x1024x24" python -m quadmesh.gui_bench \\
+        --example l_shape --example star_100 --example noisy_circle_1000
+
+For each polygon (meshed here first, the time is printed) it shows the result in the real
+window and times, each as the median of ``--repeat`` runs including the render:
+hiding + showing the final-mesh layer (one toggle), switching the mesh colour between corner
+angle and worst deviation (one switch), one zoom step, and one mouse-move step of a drag in
+the disk view (an automorphism applied to the disk layers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from collections.abc import Callable
+
+__all__ = ["main", "time_operations"]
+
+
+def _median_ms(fn: Callable[[], object], repeat: int, app: object) -> float:
+    out = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        app.processEvents()  # type: ignore[attr-defined]
+        out.append((time.perf_counter() - t) * 1000.0)
+    return statistics.median(out)
+
+
+def time_operations(win: object, app: object, repeat: int = 5) -> dict[str, float]:
+    """Median milliseconds of a layer toggle, a colour switch, a zoom step and a disk-drag
+    step in ``win`` (a MainWindow showing a result)."""
+
+    cb = win.layer_panel.checkboxes["final_mesh"]  # type: ignore[attr-defined]
+    res: dict[str, float] = {}
+    res["toggle"] = _median_ms(lambda: cb.setChecked(not cb.isChecked()), 2 * repeat, app)
+    cb.setChecked(True)
+    combo = win.layer_panel.color_mode  # type: ignore[attr-defined]
+    res["colour"] = _median_ms(lambda: combo.setCurrentIndex(1 - combo.currentIndex()), repeat, app)
+    plane = win.plane  # type: ignore[attr-defined]
+    zooms = iter([1.1, 1 / 1.1] * (repeat + 1))
+
+    def zoom() -> None:
+        plane.plotter.camera.zoom(next(zooms))
+        plane.render()
+
+    res["zoom"] = _median_ms(zoom, repeat, app)
+
+    win._on_disk_mouse("press", 0.1 + 0.05j, 0)  # type: ignore[attr-defined]
+    steps = iter([0.1 + 0.05j + 0.01 * k * (1 + 1j) for k in range(1, 4 * repeat + 3)])
+    res["drag"] = _median_ms(
+        lambda: win._on_disk_mouse("drag", next(steps), 0),  # type: ignore[attr-defined]
+        repeat,
+        app,
+    )
+    t = time.perf_counter()
+    win._on_disk_mouse("release", 0.3 + 0.25j, 0)  # type: ignore[attr-defined]
+    app.processEvents()  # type: ignore[attr-defined]
+    res["release"] = (time.perf_counter() - t) * 1000.0
+    win.set_disk_transform(None)  # type: ignore[attr-defined]
+    return res
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Mesh each polygon, show it in the app and print a table of the operation times."""
+    p = argparse.ArgumentParser(prog="python -m quadmesh.gui_bench", description=__doc__)
+    p.add_argument("--example", action="append", default=[], help="bundled example name")
+    p.add_argument("--repeat", type=int, default=5)
+    args = p.parse_args(argv)
+    names = args.example or ["l_shape", "star_100"]
+
+    from PySide6.QtWidgets import QApplication
+
+    from app.window import MainWindow
+    from quadmesh.examples import load_example
+    from quadmesh.pipeline import mesh_polygon
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    win = MainWindow(popups=False)
+    win.resize(1280, 860)
+    win.show()
+    for _ in range(10):
+        app.processEvents()
+    print(
+        f"{'polygon':<20} {'quads':>9} {'mesh s':>7} {'show s':>7} "
+        f"{'toggle ms':>10} {'colour ms':>10} {'zoom ms':>8} {'drag ms':>8} {'release ms':>10}"
+    )
+    for name in names:
+        t = time.perf_counter()
+        r = mesh_polygon(load_example(name))
+        t_mesh = time.perf_counter() - t
+        win.load_example(name)
+        t = time.perf_counter()
+        win.set_result(r)
+        app.processEvents()
+        t_show = time.perf_counter() - t
+        ms = time_operations(win, app, args.repeat)
+        print(
+            f"{name:<20} {r.mesh.n_quads:>9} {t_mesh:>7.1f} {t_show:>7.2f} {ms['toggle']:>10.1f} "
+            f"{ms['colour']:>10.1f} {ms['zoom']:>8.1f} {ms['drag']:>8.1f} {ms['release']:>10.1f}",
+            flush=True,
+        )
+    win.shutdown()
+    win.close()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
