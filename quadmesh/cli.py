@@ -340,7 +340,41 @@ def _cmd_info(args: argparse.Namespace) -> int:
         f"180° (collinear): {np.count_nonzero(straight)}   "
         f"reflex: {np.count_nonzero((ang > 180.0) & ~straight)}"
     )
+    _print_parts(poly)
     return EXIT_OK
+
+
+def _print_parts(poly) -> None:
+    """The decomposition: thick pieces, narrow channels, and whether the polygon is meshed as
+    a corridor (a ladder of straight cells) or has an arm that is."""
+    from .decompose import decompose
+    from .errors import QuadmeshError
+    from .thin.corridor import arm_and_body, whole_corridor
+
+    try:
+        dec = decompose(poly)
+    except QuadmeshError as exc:
+        print(f"decomposition: refused ({exc})")
+        return
+    print(f"thick pieces: {len(dec.thick)}   narrow channels: {len(dec.channels)}")
+    corridor, why = whole_corridor(dec)
+    if corridor is not None:
+        lay = corridor.layout
+        print(
+            f"corridor: yes — {len(lay.cells)} cells, {len(lay.rungs)} crosscuts, "
+            f"{len(lay.round_caps)} round ends, {len(lay.sectors)} bends (no conformal map)"
+        )
+        return
+    if not why:
+        return  # not crowded: Bishop's construction
+    print(f"corridor: no ({why})")
+    split = arm_and_body(dec.polygon.z)
+    if split is not None:
+        lay, body = split
+        print(
+            f"arm: a corridor of {len(lay.rungs)} crosscuts from a tip, cut where the rest "
+            f"({len(body)} vertices) begins"
+        )
 
 
 def _cmd_disk_demo(args: argparse.Namespace) -> int:

@@ -169,3 +169,14 @@ def test_bench_command_prints_rows(capsys) -> None:
     fields = row[0].split()
     quads, per_vertex = int(fields[8]), float(fields[9])
     assert quads > 0 and per_vertex == pytest.approx(quads / 10, abs=1)
+
+
+def test_info_lists_corridors(capsys):
+    """`quadmesh info` says when a polygon is meshed as a corridor (ladder of straight cells)."""
+    from quadmesh.examples import example_path
+
+    assert main(["info", str(example_path("glyph_s"))]) == 0
+    out = capsys.readouterr().out
+    assert "corridor: yes" in out and "cells" in out
+    assert main(["info", str(example_path("l_shape"))]) == 0
+    assert "corridor" not in capsys.readouterr().out
