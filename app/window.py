@@ -1466,9 +1466,10 @@ class MainWindow(QMainWindow):
         write_mesh(path, mesh, origin=origin, cell_data=result_cell_data(source))
 
     def save_screenshot(self, path: str | Path) -> None:
-        """Save a PNG of the whole window (views included)."""
-        self.plane.render()
-        self.disk.render()
+        """Save a PNG of the whole window (views included, in full detail)."""
+        for v in (self.plane, self.disk):
+            v.end_interaction(render=False)
+            v.render()
         if not self.grab().save(str(path)):
             raise OSError(f"could not write {path}")
 
