@@ -111,7 +111,10 @@ class _MouseFilter(QObject):
         elif et == QEvent.MouseButtonRelease:
             v._mouse_down = False
             handled = self._dispatch(obj, event)
-            v.end_interaction()
+            if handled:
+                v.end_interaction()
+            else:  # VTK ends its pan with one more (light) frame: full detail after it
+                QTimer.singleShot(0, v.end_interaction)
             return handled
         return self._dispatch(obj, event)
 

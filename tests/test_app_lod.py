@@ -119,3 +119,19 @@ def test_disk_drag_moves_light_parts_and_catches_up_on_release(heavy):
             pts = np.asarray(part.mesh.points)
             w = g(part.disk_z) * part.disk_scale
             np.testing.assert_allclose(pts[:, 0] + 1j * pts[:, 1], w, atol=1e-9)
+
+
+def test_pan_in_the_plane_is_light_until_the_release(heavy, qtbot):
+    """A left-button pan in the plane view (not drawing) draws the mesh light while the button
+    is down and in full detail once the release has been handled."""
+    from PySide6.QtCore import QPoint, Qt
+
+    v = heavy.plane
+    st = v.layers["final_mesh"]
+    w = v.plotter
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=QPoint(200, 200))
+    assert v.interacting and _visible(st.light_actors) == [True]
+    qtbot.mouseMove(w, QPoint(240, 230))
+    qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=QPoint(240, 230))
+    qtbot.waitUntil(lambda: not v.interacting, timeout=2000)
+    assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
