@@ -29,6 +29,21 @@ _DISK_KIND_TITLES: dict[str, str] = {
 }
 
 
+_KINDS_SEEN: list[tuple[Any, set[str]]] = []
+
+
+def _kinds_present(disk: Any) -> set[str]:
+    """The quad kinds of a disk mesh, remembered for the last few disk meshes asked about (a
+    layer toggle refreshes the legend; a million-quad piece takes 0.1 s to scan)."""
+    for seen, kinds in _KINDS_SEEN:
+        if seen is disk:
+            return kinds
+    kinds = set(np.unique(np.asarray(disk.kind)).tolist())
+    _KINDS_SEEN.insert(0, (disk, kinds))
+    del _KINDS_SEEN[4:]
+    return kinds
+
+
 def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple[str, str, str]]:
     """``(layer, label, "#rrggbb")`` for every categorical colour drawn by a visible layer of
     ``result`` (a MeshResult; None gives no entries): thick pieces (one palette colour per
@@ -46,7 +61,7 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
             if kind in kinds:
                 out.append(("thin_parts", title, THIN_COLORS[kind]))
     if "region_w" in visible and 0 <= piece < len(result.pieces):
-        present = set(np.unique(np.asarray(result.pieces[piece].disk.kind)).tolist())
+        present = _kinds_present(result.pieces[piece].disk)
         for kind, title in _DISK_KIND_TITLES.items():
             if kind in present:
                 out.append(("region_w", title, KIND_COLORS[kind]))

@@ -13,14 +13,66 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import QEvent, QObject, Qt, Signal
+from PySide6.QtCore import QEvent, QObject, Qt, QTimer, Signal
 from PySide6.QtWidgets import QWidget
 from pyvistaqt import QtInteractor
 
 from quadmesh.hyperbolic.isometry import Isometry
-from quadmesh.render import LayerGeometry, add_layer, fit_camera
+from quadmesh.render import LayerGeometry, LayerPart, add_layer, fit_camera
 
-__all__ = ["LayerState", "View2D"]
+__all__ = ["LOD_CELLS", "LayerState", "View2D", "light_stand_in"]
+
+#: parts with more cells than this are drawn lighter while the user interacts (a drag, a zoom
+#: step, a layer toggle): surfaces by a vertex-clustered copy, wireframes not at all
+LOD_CELLS = 200_000
+#: grid of the vertex clustering that makes a heavy surface's stand-in (per axis)
+LOD_DIVISIONS = 256
+#: idle time after a zoom step or a toggle before the full-detail frame is drawn
+LOD_SETTLE_MS = 250
+
+
+def light_stand_in(part: LayerPart) -> LayerPart | None:
+    """A light copy of a heavy part for interaction-time drawing, or None when the part is not
+    heavy (at most :data:`LOD_CELLS` cells) or is a wireframe/points part (hidden while the
+    user interacts).
+
+    The stand-in of a surface is its vertex clustering on a ``LOD_DIVISIONS``² grid over its
+    bounding box (each output triangle keeps the colour value of one of the input cells it
+    covers; point colour values are first averaged per cell), so it has at most about
+    2·``LOD_DIVISIONS``² triangles.  Disk parts get the stand-in's own disk coordinates, so a
+    disk automorphism moves it like the part.  Build it while the part is untransformed.
+    """
+    if part.n_cells <= LOD_CELLS or part.style != "surface":
+        return None
+    from vtkmodules.vtkFiltersCore import vtkQuadricClustering
+
+    mesh = part.mesh
+    if part.scalars is not None and part.scalars in mesh.point_data.keys():
+        mesh = mesh.point_data_to_cell_data()
+    f = vtkQuadricClustering()
+    f.SetInputData(mesh)
+    f.AutoAdjustNumberOfDivisionsOff()
+    f.SetNumberOfDivisions(LOD_DIVISIONS, LOD_DIVISIONS, 1)
+    f.CopyCellDataOn()
+    f.Update()
+    import pyvista as pv
+
+    light = pv.wrap(f.GetOutput())
+    disk_z = None
+    if part.disk_z is not None:
+        pts = np.asarray(light.points)
+        disk_z = (pts[:, 0] + 1j * pts[:, 1]) / part.disk_scale
+    return LayerPart(
+        light,
+        color=part.color,
+        opacity=part.opacity,
+        scalars=part.scalars,
+        cmap=part.cmap,
+        clim=part.clim,
+        label=f"{part.label} (light)",
+        disk_z=disk_z,
+        disk_scale=part.disk_scale,
+    )
 
 
 @dataclass
@@ -29,6 +81,11 @@ class LayerState:
 
     geometry: LayerGeometry | None = None
     actors: list[Any] = field(default_factory=list)
+    #: per drawn part: True if it is heavy (more than LOD_CELLS cells)
+    heavy: list[bool] = field(default_factory=list)
+    #: stand-in parts and their actors, drawn instead of heavy surfaces while interacting
+    light_parts: list[LayerPart] = field(default_factory=list)
+    light_actors: list[Any] = field(default_factory=list)
     visible: bool = True
     color: str | None = None
     opacity: float | None = None
@@ -44,6 +101,24 @@ class _MouseFilter(QObject):
         self._press_at: tuple[float, float] | None = None
 
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:
+        et = event.type()
+        v = self._view
+        if et == QEvent.Wheel:
+            v.interact_briefly()  # the zoom step VTK draws next is light
+        elif et == QEvent.MouseButtonPress:
+            v._mouse_down = True
+            v.begin_interaction()  # pans and disk drags are drawn light until the release
+        elif et == QEvent.MouseButtonRelease:
+            v._mouse_down = False
+            handled = self._dispatch(obj, event)
+            if handled:
+                v.end_interaction()
+            else:  # VTK ends its pan with one more (light) frame: full detail after it
+                QTimer.singleShot(0, v.end_interaction)
+            return handled
+        return self._dispatch(obj, event)
+
+    def _dispatch(self, obj: QObject, event: QEvent) -> bool:
         et = event.type()
         v = self._view
         if et in (QEvent.KeyPress, QEvent.KeyRelease):
@@ -130,6 +205,15 @@ class View2D(QWidget):
         self.capture_left = False
         self.transform: Isometry | None = None
         self.fit_bounds: tuple[float, float, float, float] | None = None
+        self._parked: dict[str, tuple[LayerGeometry, LayerState]] = {}
+        self.interacting = False
+        self._mouse_down = False
+        self._settle = QTimer(self)
+        self._settle.setSingleShot(True)
+        self._settle.timeout.connect(self.end_interaction)
+        self._stale = False  # heavy disk parts lag behind the transform
+        self._light_drawn = False  # a light frame was drawn since begin_interaction
+        self.plotter.renderer.AddObserver("StartEvent", self._on_render_start)
         self._filter = _MouseFilter(self)
         self.plotter.installEventFilter(self._filter)
 
@@ -162,26 +246,73 @@ class View2D(QWidget):
         return 2.0 * cam.parallel_scale / max(self.plotter.height(), 1)
 
     # ------------------------------------------------------------------ layers
-    def set_layer(self, name: str, geometry: LayerGeometry | None) -> None:
-        """Replace the geometry of layer ``name`` (None removes it), keeping its settings."""
+    def set_layer(self, name: str, geometry: LayerGeometry | None, *, park: bool = False) -> None:
+        """Replace the geometry of layer ``name`` (None removes it), keeping its settings.
+
+        ``park``: keep the replaced geometry's actors (hidden) so that setting it again only
+        swaps actors (switching a layer between two colourings); a layer keeps one parked
+        geometry, and a later call without ``park`` drops it.
+        """
         st = self.layers.setdefault(name, LayerState())
-        self._remove_actors(st)
+        parked = self._parked.pop(name, None)
+        if park and st.geometry is not None and parked is not None and parked[0] is geometry:
+            self._parked[name] = (st.geometry, self._detach(st))
+            self._attach(st, geometry, parked[1])
+            return
+        if parked is not None:
+            self._remove_actors(parked[1])
+        if park and st.geometry is not None and st.geometry is not geometry:
+            self._parked[name] = (st.geometry, self._detach(st))
+        else:
+            self._remove_actors(self._detach(st))
         st.geometry = geometry
         if geometry is None:
             return
-        st.actors = add_layer(self.plotter, geometry, visible=st.visible)
+        drawn = self._drawn_parts(st)
+        light = [light_stand_in(p) for p in drawn]
+        st.heavy = [p.n_cells > LOD_CELLS for p in drawn]
+        st.light_parts = [p for p in light if p is not None]
+        st.actors = add_layer(self.plotter, geometry, visible=False)
+        st.light_actors = add_layer(
+            self.plotter, LayerGeometry(name, geometry.view, st.light_parts), visible=False
+        )
         self._apply_style(st)
         if self.transform is not None:
             self._transform_state(st)
+        self._show(st)
+
+    def _detach(self, st: LayerState) -> LayerState:
+        """Hide the actors of ``st`` and move them (with its geometry) to a new state."""
+        old = LayerState(st.geometry, st.actors, st.heavy, st.light_parts, st.light_actors)
+        for a in old.actors + old.light_actors:
+            a.SetVisibility(False)
+        for bar in self._bars(old):
+            bar.SetVisibility(False)
+        st.geometry, st.actors, st.heavy, st.light_parts, st.light_actors = None, [], [], [], []
+        return old
+
+    def _attach(self, st: LayerState, geometry: LayerGeometry, old: LayerState) -> None:
+        st.geometry, st.actors, st.heavy = geometry, old.actors, old.heavy
+        st.light_parts, st.light_actors = old.light_parts, old.light_actors
+        self._apply_style(st)
+        if self.transform is not None or self._stale:
+            self._transform_state(st)
+        self._show(st)
+
+    def _bars(self, st: LayerState) -> list[Any]:
+        if st.geometry is None:
+            return []
+        bars = self.plotter.scalar_bars
+        return [bars[t] for t in st.geometry.scalar_bar_titles if t in bars.keys()]
 
     def _remove_actors(self, st: LayerState) -> None:
-        for a in st.actors:
+        for a in st.actors + st.light_actors:
             self.plotter.remove_actor(a, render=False)
         if st.geometry is not None:
             for title in st.geometry.scalar_bar_titles:
                 if title in self.plotter.scalar_bars.keys():
                     self.plotter.remove_scalar_bar(title, render=False)
-        st.actors = []
+        st.actors, st.light_actors = [], []
 
     def clear_layers(self, names: list[str] | None = None) -> None:
         """Remove the geometry of the given layers (all when None)."""
@@ -193,12 +324,61 @@ class View2D(QWidget):
         """Show or hide a layer together with its colour bars."""
         st = self.layers.setdefault(name, LayerState())
         st.visible = visible
-        for a in st.actors:
-            a.SetVisibility(visible)
-        if st.geometry is not None:
-            for title in st.geometry.scalar_bar_titles:
-                if title in self.plotter.scalar_bars.keys():
-                    self.plotter.scalar_bars[title].SetVisibility(visible)
+        self._show(st)
+
+    def _show(self, st: LayerState) -> None:
+        """Visibility of the actors of ``st``: heavy parts give way to their light stand-ins
+        (or to nothing) while the user interacts."""
+        light = self.interacting
+        for a, heavy in zip(st.actors, st.heavy, strict=True):
+            a.SetVisibility(st.visible and not (light and heavy))
+        for a in st.light_actors:
+            a.SetVisibility(st.visible and light)
+        for bar in self._bars(st):
+            bar.SetVisibility(st.visible)
+
+    # ------------------------------------------------------------------ interaction detail
+    def begin_interaction(self) -> None:
+        """Draw heavy parts light (see :func:`light_stand_in`) until :meth:`end_interaction`."""
+        self._settle.stop()
+        if self.interacting or not self.has_heavy_parts():
+            return
+        self.interacting = True
+        for st in self.layers.values():
+            self._show(st)
+
+    def end_interaction(self, render: bool = True) -> None:
+        """Back to full detail (the heavy parts catch up with the disk transform); redraw if
+        a light frame was shown."""
+        self._settle.stop()
+        if not self.interacting:
+            return
+        self.interacting = False
+        for st in self.layers.values():
+            if self._stale:
+                self._transform_state(st)
+            self._show(st)
+        self._stale = False
+        if render and self._light_drawn:
+            self.plotter.render()
+        self._light_drawn = False
+
+    def _on_render_start(self, *_: Any) -> None:
+        if self.interacting:
+            self._light_drawn = True
+
+    def interact_briefly(self) -> None:
+        """Light drawing now and full detail after ``LOD_SETTLE_MS`` without another call (a
+        zoom step, a layer toggle, a colour switch)."""
+        if self._mouse_down:
+            return
+        self.begin_interaction()
+        if self.interacting:
+            self._settle.start(LOD_SETTLE_MS)
+
+    def has_heavy_parts(self) -> bool:
+        """Whether a visible layer has a part with more than ``LOD_CELLS`` cells."""
+        return any(st.visible and any(st.heavy) for st in self.layers.values())
 
     def set_color(self, name: str, color: str) -> None:
         """Colour of the flat-coloured parts of a layer."""
@@ -215,7 +395,9 @@ class View2D(QWidget):
     def _apply_style(self, st: LayerState) -> None:
         if st.geometry is None:
             return
-        for part, actor in zip(self._drawn_parts(st), st.actors, strict=True):
+        pairs = list(zip(self._drawn_parts(st), st.actors, strict=True))
+        pairs += list(zip(st.light_parts, st.light_actors, strict=True))
+        for part, actor in pairs:
             if st.color is not None and part.scalars is None and part.style != "points":
                 actor.prop.color = st.color
             if st.opacity is not None:
@@ -242,11 +424,17 @@ class View2D(QWidget):
     def set_transform(self, g: Isometry | None) -> None:
         """Move every disk-coordinate part by the isometry ``g`` (None = identity)."""
         self.transform = g
+        self._stale = self._stale or self.interacting
         for st in self.layers.values():
             self._transform_state(st)
 
     def _transform_state(self, st: LayerState) -> None:
-        for part in self._drawn_parts(st):
+        """Move the disk parts of ``st``; while the user interacts, only the drawn ones (the
+        heavy parts catch up in :meth:`end_interaction`)."""
+        parts = self._drawn_parts(st)
+        if self.interacting:
+            parts = [p for p, heavy in zip(parts, st.heavy, strict=True) if not heavy]
+        for part in parts + st.light_parts:
             if part.disk_z is None:
                 continue
             w = part.disk_z if self.transform is None else self.transform(part.disk_z)
@@ -276,6 +464,13 @@ class View2D(QWidget):
         super().resizeEvent(event)
         if self.fit_bounds is not None:
             self.reset_view(self.fit_bounds)
+
+    def zoom(self, factor: float) -> None:
+        """One zoom step by ``factor`` (> 1 zooms in), drawn light on heavy layers."""
+        self.fit_bounds = None
+        self.interact_briefly()
+        self.plotter.camera.zoom(factor)
+        self.plotter.render()
 
     def render(self) -> None:
         """Redraw now."""

@@ -613,9 +613,12 @@ class MainWindow(QMainWindow):
         self.shortcuts_dialog = dlg
         dlg.open()
 
-    def _put(self, view: View2D, name: str, geometry: LayerGeometry | None) -> None:
-        """Set a layer's geometry and show its flat colour on the layer panel's swatch."""
-        view.set_layer(name, geometry)
+    def _put(
+        self, view: View2D, name: str, geometry: LayerGeometry | None, *, park: bool = False
+    ) -> None:
+        """Set a layer's geometry and show its flat colour on the layer panel's swatch
+        (``park``: see :meth:`View2D.set_layer`)."""
+        view.set_layer(name, geometry, park=park)
         if view is self.plane and name in ("polygon", "final_mesh"):
             self._update_fill()
         st = view.layers[name]
@@ -765,8 +768,8 @@ class MainWindow(QMainWindow):
         loaded = SimpleNamespace(mesh=mesh, polygon=None, quality=quality, origin=0j)
         self.loaded_mesh, self._loaded = mesh, loaded
         self._forget_picked_quad()
-        for layer in ("final_mesh", "bad_quads"):
-            self._put(self.plane, layer, build_layer(loaded, layer, color_by=self.color_mode))
+        self._put(self.plane, "final_mesh", self._mesh_layer(loaded, self.color_mode))
+        self._put(self.plane, "bad_quads", build_layer(loaded, "bad_quads"))
         q = quality
         rows = [
             ("mesh file", html_escape(name)),
@@ -1203,7 +1206,10 @@ class MainWindow(QMainWindow):
         problems = []
         for name in _RESULT_PLANE:
             try:
-                self._put(self.plane, name, build_layer(result, name, color_by=self.color_mode))
+                if name == "final_mesh":
+                    self._put(self.plane, name, self._mesh_layer(result, self.color_mode))
+                else:
+                    self._put(self.plane, name, build_layer(result, name))
             except (AttributeError, TypeError, ValueError, IndexError, KeyError) as exc:
                 self._put(self.plane, name, None)
                 problems.append(f"{LAYER_TITLES[name]}: {exc}")
@@ -1253,12 +1259,14 @@ class MainWindow(QMainWindow):
         self.color_mode = mode
         shown = self.result if self.result is not None else self._loaded
         if shown is not None:
-            self._put(self.plane, "final_mesh", self._mesh_layer(shown, mode))
+            # the other colouring's actors stay parked: switching back only swaps them
+            self.plane.interact_briefly()
+            self._put(self.plane, "final_mesh", self._mesh_layer(shown, mode), park=True)
             self.plane.render()
 
     def _mesh_layer(self, shown: Any, mode: str) -> LayerGeometry:
         """The final-mesh layer of ``shown`` coloured by ``mode``, built once per result and
-        colouring (switching back and forth only re-adds the built geometry)."""
+        colouring (the plane view parks the other colouring's actors)."""
         key = (id(shown), mode)
         cache = self._mesh_layer_cache
         if cache.get("owner") is not shown:
@@ -1322,6 +1330,7 @@ class MainWindow(QMainWindow):
     # ================================================================== layers
     def _on_layer_toggled(self, view: str, name: str, on: bool) -> None:
         v = self._view(view)
+        v.interact_briefly()  # a light frame now, full detail once the toggling stops
         v.set_visible(name, on)
         if view == "plane" and name in ("polygon", "final_mesh"):
             self._update_fill()
@@ -1367,6 +1376,7 @@ class MainWindow(QMainWindow):
                 return
             self._disk_press = (w, g)
             self._disk_dragged = False
+            self.disk.begin_interaction()  # heavy disk layers drawn light while dragging
         elif kind == "drag" and self._disk_press is not None:
             a, g0 = self._disk_press
             if not self._disk_dragged and abs(w - a) < _drag_threshold(self.disk):
@@ -1384,6 +1394,7 @@ class MainWindow(QMainWindow):
                 self.disk.render()
             else:
                 self.pick_disk_point(complex(g0.inverse()(a)))
+            self.disk.end_interaction()
         elif kind == "dblclick" and abs(w) < 0.995:
             self.set_disk_transform(disk_automorphism(w) @ g)
 
@@ -1455,9 +1466,10 @@ class MainWindow(QMainWindow):
         write_mesh(path, mesh, origin=origin, cell_data=result_cell_data(source))
 
     def save_screenshot(self, path: str | Path) -> None:
-        """Save a PNG of the whole window (views included)."""
-        self.plane.render()
-        self.disk.render()
+        """Save a PNG of the whole window (views included, in full detail)."""
+        for v in (self.plane, self.disk):
+            v.end_interaction(render=False)
+            v.render()
         if not self.grab().save(str(path)):
             raise OSError(f"could not write {path}")
 

@@ -1,0 +1,137 @@
+"""Interaction-time level of detail of the app's views (run under ``xvfb-run``): parts with
+more than ``app.views.LOD_CELLS`` cells are drawn light while the user drags, zooms or toggles
+and in full detail afterwards.  The threshold is lowered here so that the meshed L-shape
+counts as heavy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.helpers import require_pipeline
+from tests.test_app import mesh_l_shape
+
+pytestmark = pytest.mark.gui
+
+
+@pytest.fixture
+def heavy(main_window, qtbot, monkeypatch):
+    """The meshed L-shape, shown again with LOD_CELLS = 40 and 12 clustering divisions."""
+    require_pipeline()
+    import app.views
+
+    monkeypatch.setattr(app.views, "LOD_CELLS", 40)
+    monkeypatch.setattr(app.views, "LOD_DIVISIONS", 12)
+    win = mesh_l_shape(main_window, qtbot)
+    win.set_result(win.result)
+    return win
+
+
+def _visible(actors) -> list[bool]:
+    return [bool(a.GetVisibility()) for a in actors]
+
+
+def test_light_stand_in_of_the_final_mesh(heavy):
+    """The stand-in of the coloured quads is a vertex clustering: far fewer cells over the
+    same extent, colour values (per cell) within the colour range of the full part."""
+    st = heavy.plane.layers["final_mesh"]
+    quads = st.geometry.part("quads")
+    assert st.heavy == [True, True]  # quads and edges
+    assert len(st.light_parts) == 1  # wireframes get no stand-in
+    light = st.light_parts[0]
+    assert 0 < light.n_cells <= 2 * 12 * 12 < quads.n_cells
+    np.testing.assert_allclose(light.mesh.bounds[:4], quads.mesh.bounds[:4], atol=0.1)
+    vals = np.asarray(light.mesh.cell_data[quads.scalars])
+    full = np.asarray(quads.mesh[quads.scalars])
+    assert full.min() - 1e-9 <= vals.min() and vals.max() <= full.max() + 1e-9
+
+
+def test_interaction_swaps_heavy_parts_for_light_ones(heavy, qtbot):
+    """begin/end_interaction show the stand-ins instead of the heavy parts and back; a layer
+    toggle draws light at once and full detail after LOD_SETTLE_MS."""
+    import app.views
+
+    v = heavy.plane
+    st = v.layers["final_mesh"]
+    assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
+    v.begin_interaction()
+    assert _visible(st.actors) == [False, False] and _visible(st.light_actors) == [True]
+    v.end_interaction()
+    assert not v.interacting and _visible(st.actors) == [True, True]
+    heavy.layer_panel.checkboxes["crosscuts"].setChecked(False)
+    assert v.interacting and _visible(st.light_actors) == [True]
+    qtbot.waitUntil(lambda: not v.interacting, timeout=app.views.LOD_SETTLE_MS + 2000)
+    assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
+    # hiding the layer while light hides its stand-in too
+    v.begin_interaction()
+    heavy.layer_panel.checkboxes["final_mesh"].setChecked(False)
+    assert _visible(st.actors + st.light_actors) == [False, False, False]
+    v.end_interaction()
+    assert _visible(st.actors + st.light_actors) == [False, False, False]
+
+
+def test_colour_switch_reuses_parked_actors(heavy, qtbot):
+    """Switching corner → worst → corner shows the first colouring's own actors again, with
+    exactly one colour bar on screen, the one of the colouring shown."""
+    from quadmesh.render import CORNER_TITLE, WORST_TITLE
+
+    v = heavy.plane
+    first = list(v.layer_actors("final_mesh"))
+    combo = heavy.layer_panel.color_mode
+    combo.setCurrentIndex(combo.findData("worst"))
+    assert v.layers["final_mesh"].geometry.part("quads").scalars == "worst_deviation"
+    bars = v.plotter.scalar_bars
+    assert bars[WORST_TITLE].GetVisibility() and not bars[CORNER_TITLE].GetVisibility()
+    assert not any(a is b for a in v.layer_actors("final_mesh") for b in first)
+    combo.setCurrentIndex(combo.findData("corner"))
+    again = v.layer_actors("final_mesh")
+    assert len(again) == len(first) and all(a is b for a, b in zip(again, first, strict=True))
+    assert bars[CORNER_TITLE].GetVisibility() and not bars[WORST_TITLE].GetVisibility()
+    v.end_interaction()
+    st = v.layers["final_mesh"]
+    assert _visible(st.actors) == [True, True]
+    parked = v._parked["final_mesh"][1]
+    assert _visible(parked.actors + parked.light_actors) == [False, False, False]
+
+
+def test_disk_drag_moves_light_parts_and_catches_up_on_release(heavy):
+    """During a drag in the disk view only the light parts follow the automorphism; on the
+    release every disk part sits at g(disk_z)."""
+    win = heavy
+    d = win.disk
+    st = d.layers["region_w"]
+    assert any(st.heavy) and st.light_parts
+    win._on_disk_mouse("press", 0.1 + 0.05j, 0)
+    win._on_disk_mouse("drag", 0.4 + 0.3j, 0)
+    g = d.transform
+    assert g is not None and d.interacting
+    for part in st.light_parts:
+        pts = np.asarray(part.mesh.points)
+        np.testing.assert_allclose(pts[:, 0] + 1j * pts[:, 1], g(part.disk_z), atol=1e-9)
+    big = [p for p, h in zip(d._drawn_parts(st), st.heavy, strict=True) if h]
+    pts = np.asarray(big[0].mesh.points)
+    assert not np.allclose(pts[:, 0] + 1j * pts[:, 1], g(big[0].disk_z) * big[0].disk_scale)
+    win._on_disk_mouse("release", 0.4 + 0.3j, 0)
+    assert not d.interacting
+    g = d.transform
+    for part in d._drawn_parts(st):
+        if part.disk_z is not None:
+            pts = np.asarray(part.mesh.points)
+            w = g(part.disk_z) * part.disk_scale
+            np.testing.assert_allclose(pts[:, 0] + 1j * pts[:, 1], w, atol=1e-9)
+
+
+def test_pan_in_the_plane_is_light_until_the_release(heavy, qtbot):
+    """A left-button pan in the plane view (not drawing) draws the mesh light while the button
+    is down and in full detail once the release has been handled."""
+    from PySide6.QtCore import QPoint, Qt
+
+    v = heavy.plane
+    st = v.layers["final_mesh"]
+    w = v.plotter
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=QPoint(200, 200))
+    assert v.interacting and _visible(st.light_actors) == [True]
+    qtbot.mouseMove(w, QPoint(240, 230))
+    qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=QPoint(240, 230))
+    qtbot.waitUntil(lambda: not v.interacting, timeout=2000)
+    assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
