@@ -262,6 +262,8 @@ class MainWindow(QMainWindow):
         self.runner.progress.connect(self._on_progress)
         self.runner.finished.connect(self._on_finished)
         self.runner.failed.connect(self._on_failed)
+        self.runner.partial.connect(self._on_partial)
+        self.partial: Any = None
         self.runner.cancelled.connect(self._on_cancelled)
         self.runner.idle.connect(self._on_idle)
 
@@ -1135,10 +1137,29 @@ class MainWindow(QMainWindow):
         self.progress_bar.setFormat(f"done in {seconds:.2f} s")
         self.set_result(result)
 
+    def _on_partial(self, partial: Any) -> None:
+        """Keep what the failed run computed (its decomposition); drawn by :meth:`_on_failed`."""
+        self.partial = partial
+
     def _on_failed(self, message: str) -> None:
         self.progress_bar.setFormat("failed")
         self._show_error(message)
+        self._show_partial()
         self._mark_problem(message)
+
+    def _show_partial(self) -> None:
+        """Draw the stages a failed run computed — its thick pieces and crosscuts — as an
+        overlay of the plane view (removed with the error when the polygon changes)."""
+        if self.partial is None:
+            return
+        parts: list = []
+        for name in ("thick_pieces", "crosscuts"):
+            try:
+                parts.extend(build_layer(self.partial, name).parts)
+            except (AttributeError, ValueError, IndexError):  # a stage that did not run
+                continue
+        geo = LayerGeometry("partial", "plane", parts) if parts else None
+        self.plane.set_overlay("partial", geo)
 
     def _mark_problem(self, message: str) -> None:
         """Red markers on the plane view at every "(x, y)" point the failure message names
@@ -1184,6 +1205,10 @@ class MainWindow(QMainWindow):
             return
         self.last_error = None
         self.error_box.clear_message()
+        self.partial = None
+        if "partial" in self.plane.overlays:
+            self.plane.set_overlay("partial", None)
+            self.plane.render()
         if "problem" in self.plane.overlays:
             self.problem_points = np.zeros(0, dtype=np.complex128)
             self.plane.set_overlay("problem", None)

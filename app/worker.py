@@ -28,6 +28,7 @@ class MeshWorker(QObject):
     progress = Signal(str, float)
     finished = Signal(object, float)
     failed = Signal(str)
+    partial = Signal(object)  # what a failed run computed (emitted just before ``failed``)
     cancelled = Signal()
     done = Signal()
 
@@ -56,6 +57,8 @@ class MeshWorker(QObject):
         except Cancelled:
             self.cancelled.emit()
         except QuadmeshError as exc:
+            if exc.partial is not None:
+                self.partial.emit(exc.partial)
             self.failed.emit(str(exc))
         except Exception as exc:  # the message reaches the user; the app keeps running
             tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
@@ -74,6 +77,7 @@ class JobRunner(QObject):
     progress = Signal(str, float)
     finished = Signal(object, float)
     failed = Signal(str)
+    partial = Signal(object)
     cancelled = Signal()
     idle = Signal()
 
@@ -97,6 +101,7 @@ class JobRunner(QObject):
         worker.progress.connect(self.progress)
         worker.finished.connect(self.finished)
         worker.failed.connect(self.failed)
+        worker.partial.connect(self.partial)
         worker.cancelled.connect(self.cancelled)
         worker.done.connect(thread.quit)
         thread.started.connect(worker.run)

@@ -8,9 +8,14 @@ from __future__ import annotations
 
 
 class QuadmeshError(Exception):
-    """Base class of every error raised on purpose by quadmesh."""
+    """Base class of every error raised on purpose by quadmesh.
+
+    ``partial``: when :func:`~quadmesh.mesh_polygon` fails after the decomposition, a
+    :class:`PartialResult` with what was computed up to there (so a viewer can show it), else
+    None."""
 
     stage: str = "quadmesh"
+    partial: object = None
 
     def __init__(self, message: str, *, stage: str | None = None) -> None:
         if stage is not None:
@@ -19,6 +24,20 @@ class QuadmeshError(Exception):
 
     def __str__(self) -> str:
         return f"[{self.stage}] {super().__str__()}"
+
+
+class PartialResult:
+    """What a failed run computed before it stopped: the validated ``polygon``, its
+    ``decomposition`` and the working ``origin`` (stage data are relative to it). Plane layers
+    that need only these (``polygon``, ``thick_pieces``, ``crosscuts``) can be drawn from it by
+    :func:`quadmesh.render.build_layer`; ``pieces`` and ``thin`` are empty."""
+
+    def __init__(self, polygon: object, decomposition: object, origin: complex = 0j) -> None:
+        self.polygon = polygon
+        self.decomposition = decomposition
+        self.origin = origin
+        self.pieces: tuple = ()
+        self.thin: tuple = ()
 
 
 class PolygonError(QuadmeshError, ValueError):

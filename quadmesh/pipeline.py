@@ -25,7 +25,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from .errors import Cancelled, ConformalMapError, DiskConstructionError, ThinPartError
+from .errors import (
+    Cancelled,
+    ConformalMapError,
+    DiskConstructionError,
+    PartialResult,
+    QuadmeshError,
+    ThinPartError,
+)
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
 from .polygon import Polygon, validate_polygon
 from .progress import Run, running
@@ -145,39 +152,45 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
     dec = decompose(work_poly, DecomposeOptions(delta=options.channel_delta))
     timings["decompose"] = time.perf_counter() - t0
 
-    # A polygon that stays one crowded thick piece (a pen stroke, a letter, a river) is a
-    # corridor: meshed by a ladder of straight cells, without a conformal map.
-    report("corridor", 0.08, 0.1)
-    t0 = time.perf_counter()
-    corridor, corridor_why = whole_corridor(dec)
-    timings["corridor"] = time.perf_counter() - t0
-    armed = None
-    if corridor is None and corridor_why:
-        # not a corridor as a whole: an arm (a corridor from one tip) and the body behind it
-        armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
-    if corridor is not None:
-        asm = Assembler()
-        gl = asm.add_vertices(corridor.vertices)
-        asm.add_quads(gl[corridor.quads], source=3)
-        pieces, thin = [], [ThinPartResult("corridor", 0, corridor, gl)]
-        dec = replace(dec, thick=(), corners=())
-    elif armed is not None:
-        asm, pieces, thin, dec = armed
-    else:
-        try:
-            asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings)
-        except (ConformalMapError, DiskConstructionError) as exc:
-            if not corridor_why:  # several pieces, one of them too crowded: try an arm
-                armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
-            if armed is None and corridor_why:
-                raise type(exc)(
-                    f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
-                    f"{corridor_why}. A wider passage or longer straight walls there would help "
-                    "both ways"
-                ) from exc
-            if armed is None:
-                raise
+    try:
+        # A polygon that stays one crowded thick piece (a pen stroke, a letter, a river) is a
+        # corridor: meshed by a ladder of straight cells, without a conformal map.
+        report("corridor", 0.08, 0.1)
+        t0 = time.perf_counter()
+        corridor, corridor_why = whole_corridor(dec)
+        timings["corridor"] = time.perf_counter() - t0
+        armed = None
+        if corridor is None and corridor_why:
+            # not a corridor as a whole: an arm (a corridor from one tip) and the body behind it
+            armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
+        if corridor is not None:
+            asm = Assembler()
+            gl = asm.add_vertices(corridor.vertices)
+            asm.add_quads(gl[corridor.quads], source=3)
+            pieces, thin = [], [ThinPartResult("corridor", 0, corridor, gl)]
+            dec = replace(dec, thick=(), corners=())
+        elif armed is not None:
             asm, pieces, thin, dec = armed
+        else:
+            try:
+                asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings)
+            except (ConformalMapError, DiskConstructionError) as exc:
+                if not corridor_why:  # several pieces, one of them too crowded: try an arm
+                    stop = run.cancel if run is not None else None
+                    armed = _mesh_arm_and_body(dec, options, stop)
+                if armed is None and corridor_why:
+                    raise type(exc)(
+                        f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
+                        f"{corridor_why}. A wider passage or longer straight walls there would "
+                        "help both ways"
+                    ) from exc
+                if armed is None:
+                    raise
+                asm, pieces, thin, dec = armed
+    except QuadmeshError as exc:
+        if not isinstance(exc, Cancelled) and exc.partial is None:
+            exc.partial = PartialResult(poly, dec, origin)
+        raise
 
     report("verify", 0.9, 1.0)
     t0 = time.perf_counter()

@@ -288,6 +288,13 @@ def test_failed_run_marks_the_place_it_names(main_window, qtbot):
     z = win.editor.z
     assert np.all((pts.real > z.real.min() - 1) & (pts.real < z.real.max() + 1))
     assert np.all((pts.imag > z.imag.min() - 1) & (pts.imag < z.imag.max() + 1))
-    # an edit forgets the failure and its markers
+    # what the run computed before it failed — its thick piece — is drawn too
+    assert win.partial is not None and len(win.partial.decomposition.thick) >= 1
+    part_actors = win.plane.overlays["partial"]
+    assert part_actors and all(a.GetVisibility() for a in part_actors)
+    bounds = np.asarray(part_actors[0].GetMapper().GetInput().bounds)
+    assert bounds[0] >= z.real.min() - 1e-9 and bounds[1] <= z.real.max() + 1e-9
+    # an edit forgets the failure, its markers and its partial stages
     win.set_polygon(walks(0)[2].vertices[:-1])
     assert "problem" not in win.plane.overlays and win.problem_points.size == 0
+    assert "partial" not in win.plane.overlays and win.partial is None

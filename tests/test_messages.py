@@ -292,3 +292,19 @@ def test_adaptive_fix_notes_name_the_users_polygon() -> None:
         assert named or re.search(r"through vertices \d+ to \d+", f), f
         for k, x, y in named:
             assert np.allclose(points[int(k)], [float(x), float(y)], rtol=1e-5, atol=1e-5), f
+
+
+def test_a_failure_carries_what_was_computed():
+    """A run that fails after the decomposition attaches a PartialResult (polygon,
+    decomposition, origin) to the exception, from which the plane layers that need only these
+    can be drawn."""
+    from quadmesh import mesh_polygon, validate_polygon
+    from quadmesh.errors import PartialResult, QuadmeshError
+    from quadmesh.render import build_layer
+
+    with pytest.raises(QuadmeshError) as info:
+        mesh_polygon(_walk(2))
+    partial = info.value.partial
+    assert isinstance(partial, PartialResult) and len(partial.decomposition.thick) >= 1
+    assert np.allclose(partial.polygon.z, validate_polygon(_walk(2)).z)
+    assert build_layer(partial, "thick_pieces").parts
