@@ -104,8 +104,13 @@ class _MouseFilter(QObject):
         et = event.type()
         v = self._view
         if et == QEvent.Wheel:
-            v.interact_briefly()  # the zoom step VTK draws next is light
-        elif et == QEvent.MouseButtonPress:
+            # zoom about the cursor: the world point under it stays under it
+            steps = event.angleDelta().y() / 120.0
+            if steps:
+                pos = event.position()
+                v.zoom_at(pos.x(), pos.y(), 1.2**steps)
+            return True
+        if et == QEvent.MouseButtonPress:
             v._mouse_down = True
             v.begin_interaction()  # pans and disk drags are drawn light until the release
         elif et == QEvent.MouseButtonRelease:
@@ -470,6 +475,22 @@ class View2D(QWidget):
         self.fit_bounds = None
         self.interact_briefly()
         self.plotter.camera.zoom(factor)
+        self.plotter.render()
+
+    def zoom_at(self, x: float, y: float, factor: float) -> None:
+        """Zoom by ``factor`` (> 1 zooms in) about widget pixel (x, y): the world point under
+        that pixel stays under it (the wheel does this)."""
+        before = self.to_world(x, y)
+        self.fit_bounds = None
+        self.interact_briefly()
+        cam = self.plotter.camera
+        cam.zoom(factor)
+        after = self.to_world(x, y)
+        d = before - after
+        fx, fy, fz = cam.focal_point
+        px, py, pz = cam.position
+        cam.focal_point = (fx + d.real, fy + d.imag, fz)
+        cam.position = (px + d.real, py + d.imag, pz)
         self.plotter.render()
 
     def render(self) -> None:
