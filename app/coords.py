@@ -52,7 +52,7 @@ class CoordinatesDialog(QDialog):
         self.paste_button = QPushButton("Paste")
         self.paste_button.setObjectName("paste_button")
         self.paste_button.setToolTip("replace the text by the clipboard's")
-        self.paste_button.clicked.connect(self.paste)
+        self.paste_button.clicked.connect(lambda _checked=False: self.paste())
         self.buttons.addButton(self.paste_button, QDialogButtonBox.ActionRole)
         self.buttons.accepted.connect(self.accept)
         self.buttons.rejected.connect(self.reject)

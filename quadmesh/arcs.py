@@ -42,7 +42,7 @@ def _choose_arcs(
     minimal containing arc of a concentric √A·I_j can be very lopsided (|J|/|√A I| was
     measured up to 13), so J_j is chosen first: among the tessellation (I5) arcs that
     contain the core with half-width φ near max(g/A_eff, 1.2·√A·half) (g the gap to the
-    neighbouring prevertices; CONFORMAL.md §3.2: the crosscut is round to ≈ 1.1·φ/g), the
+    neighbouring prevertices: the crosscut is round to ≈ 1.1·φ/g), the
     one whose centre is closest to the core's centre relative to φ. I_j is then the arc
     concentric with J_j of half-width φ/(1.02·√A): √A·I_j ⊂ J_j, so Lemma 2.2 selects J_j (or
     a slightly shorter arc with the same centre up to 2 %), and the A-fold expansion

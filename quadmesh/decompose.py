@@ -7,11 +7,11 @@ least δ in Ω.  Where two non-adjacent sides come closer than that, Ω contains
   adjacent edges).  Their outer boundary is fixed later by the conformal map of the thick
   piece that contains v_k (the image of the hyperbolic geodesic over the interval J_k of
   Lemma 2.2), so here we only record the vertex, its angle, its sides and the size hint
-  ``r_k = κ·d_k`` of CONFORMAL.md §2.1, where ``d_k`` is the distance from v_k to every
+  ``r_k = κ·d_k``, where ``d_k`` is the distance from v_k to every
   non-adjacent edge and to the far ends of its own edges.
 * **hyperbolic** thin parts (:class:`Channel`): narrow channels between two non-adjacent
   straight edges (the *walls*) whose extremal distance is below δ.  The extremal distance is
-  estimated in the channel's strip coordinate (CONFORMAL.md §2.2): ``width / length`` for
+  estimated in the channel's strip coordinate: ``width / length`` for
   parallel walls and ``β / log(r_b / r_a)`` for walls on two lines meeting at O with angle β
   (``log(z - O)`` maps the annular sector to a β-wide strip).
 
@@ -54,8 +54,7 @@ runs back.  No crosscut comes within ``r_k`` of a vertex v_k: vertex regions are
 walking the boundary and jumping across each core along its crosscuts, so that a crosscut's
 vertex array is the same array in the thick piece and in the channel core.
 
-**Crowding-driven refinement** (CONFORMAL.md §1.9 "split further", on by default:
-``crowding_gap = 1e-9``).  A corridor whose straight legs are each too short for ED < δ
+**Crowding-driven refinement**.  A corridor whose straight legs are each too short for ED < δ
 (square_spiral: seven legs of 1.5–6 widths, ~35 widths in all) stays inside one thick piece,
 whose prevertex gaps then fall far below double precision (1e-36).  After the ordinary pass,
 every thick piece that holds a *relaxed* candidate (ED < ``refine_delta`` = 0.5, overlap
@@ -117,9 +116,8 @@ class DecomposeOptions:
 
     Attributes:
         delta: channel threshold δ; a pair of facing non-adjacent edges whose estimated
-            extremal distance is below δ is cut out as a hyperbolic thin part
-            (CONFORMAL.md §2.3; δ = π/(4 log A)).
-        kappa: vertex-sector factor κ, ``r_k = κ·d_k`` (CONFORMAL.md §2.1).
+            extremal distance is below δ is cut out as a hyperbolic thin part.
+        kappa: vertex-sector factor κ, ``r_k = κ·d_k``.
         crosscut_vertices: number of vertices of each polygonised crosscut (endpoints
             included, at least 2).
         overlap: depth (in channel widths, i.e. strip units) by which each thick piece
@@ -134,7 +132,7 @@ class DecomposeOptions:
             (arcs of radius ~ width/β), so that both walls are exactly the frame's lines.
         center_tol: tolerance of the largest inscribed disk computation giving each thick
             piece's centre, relative to ``sqrt(area)`` of the piece.
-        crowding_gap: crowding-driven refinement (CONFORMAL.md §1.9, "split further"): while
+        crowding_gap: crowding-driven refinement: while
             a thick piece's smallest prevertex gap, estimated as ``2π·min ω`` from its centre
             (:func:`quadmesh.conformal.center.harmonic_measure`), is below this value, one
             more channel with ED < ``refine_delta`` is cut inside it.  ``0`` disables it.
@@ -225,7 +223,7 @@ class DecomposeOptions:
 
 @dataclass(frozen=True)
 class Corner:
-    """Parabolic thin part at polygon vertex ``index`` (paper §7, CONFORMAL.md §2.1).
+    """Parabolic thin part at polygon vertex ``index`` (paper §7).
 
     Attributes:
         index: polygon vertex index k.
@@ -369,8 +367,7 @@ class ThickPiece:
         z: complex vertices, counter-clockwise.
         source: polygon vertex index of each piece vertex, −1 for crosscut vertices.
         crosscuts: the crosscut stretches of the boundary (:class:`PieceCrosscut`).
-        center: centre of the largest inscribed disk (the point f(0) of its SC map,
-            CONFORMAL.md §2.4).
+        center: centre of the largest inscribed disk (the point f(0) of its SC map).
         radius: radius of that disk.
         min_gap: estimate of the smallest prevertex gap (radians) of the piece's disk map
             with f(0) = ``center``: ``2π·min_k ω(center, side_k)``.  Estimated only where the
@@ -559,8 +556,8 @@ def _find_channels(
     min_overlap: float,
     min_core: float,
 ) -> tuple[list[_Candidate], int]:
-    """Candidate channels for all facing wall pairs with ED < delta (CONFORMAL.md §2.2 steps
-    1–3): overlap depth ``min(opt.overlap_depth, (strip length − min_core)/2)``, at least
+    """Candidate channels for all facing wall pairs with ED < delta: overlap depth
+    ``min(opt.overlap_depth, (strip length − min_core)/2)``, at least
     ``min_overlap``."""
     n = z.size
     zn = np.roll(z, -1)
@@ -885,7 +882,7 @@ def _next_start(starts: np.ndarray, order: np.ndarray, t: float) -> int:
 
 
 def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decomposition:
-    """Thick/thin decomposition of a simple polygon (Bishop §7; CONFORMAL.md §2).
+    """Thick/thin decomposition of a simple polygon (Bishop §7).
 
     Args:
         polygon: anything :func:`quadmesh.polygon.validate_polygon` accepts.
@@ -1079,8 +1076,8 @@ def _band(z: np.ndarray, c: _Candidate, m: int) -> shapely.Polygon:
 
 
 def _min_gap(v: np.ndarray, centre: complex) -> float:
-    """Estimated smallest prevertex gap ``2π·min ω`` of a piece seen from its centre
-    (CONFORMAL.md §1.5, §1.8); NaN when the finite-element estimate cannot be built."""
+    """Estimated smallest prevertex gap ``2π·min ω`` of a piece seen from its centre; NaN when the
+    finite-element estimate cannot be built."""
     from .conformal.center import harmonic_measure
     from .errors import PolygonError
 
@@ -1101,7 +1098,7 @@ def _refine(
     built: tuple[list[Channel], _Raw, list[tuple[complex, float]]],
     m: int,
 ) -> tuple[list[Channel], _Raw, list[tuple[complex, float]], list[float]]:
-    """Crowding-driven refinement (CONFORMAL.md §1.9 "split further", §1.8 crowding rule).
+    """Crowding-driven refinement.
 
     The extra channels come from a relaxed pass: facing single-edge walls with
     ED < ``max(delta, refine_delta)``, found and trimmed by the rules of the ordinary pass
@@ -1213,8 +1210,7 @@ def _centres(
     The paper (§7) maps 0 to "a point outside of all the thin parts hitting Ω_1", so that the
     expanded intervals (preimages of the outer crosscuts γ') have length < π.  We remove the
     overlap bands Ω_3 (between γ' and γ) from the piece and take the centre of the largest
-    inscribed disk of the largest remaining component (CONFORMAL.md §2.4; ties are broken
-    towards the middle of the ridge, see :func:`_ridge_centre`); the returned radius is that
+    inscribed disk of the largest remaining component; the returned radius is that
     disk's radius.
     """
     out = []

@@ -1,7 +1,7 @@
 """Errors raised by the quadmesh pipeline.
 
 Every stage that cannot do its job raises a subclass of :class:`QuadmeshError` whose
-``stage`` names the stage and whose message says why (ARCHITECTURE.md, rule 5).
+``stage`` names the stage and whose message says why.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ __all__ = ["Assembler", "glue_thick_pieces", "glue_thin_parts"]
 class Assembler:
     """Collects vertices and quads of all stages into one global numbering.
 
-    Shared vertices are glued by index (ARCHITECTURE.md rule 6): a thin part receives
+    Shared vertices are glued by index: a thin part receives
     the global ids of the crosscut vertices it was built on, never a merge by distance.
     """
 

@@ -1,7 +1,7 @@
 """Quadrilateral meshes: corner angles, areas, quality report and verification.
 
-:class:`QuadMesh` is the output of the pipeline (ARCHITECTURE.md, "Every mesh that leaves the
-pipeline is verified", rule 5). :meth:`QuadMesh.verify` checks what the main theorem of the
+:class:`QuadMesh` is the output of the pipeline. :meth:`QuadMesh.verify` checks what the main
+theorem of the
 paper promises (Bishop, "Optimal angle bounds for quadrilateral meshes", Theorem 1.1):
 
 * the quads form a conforming mesh: every interior edge lies in exactly two quads, with

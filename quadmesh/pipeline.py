@@ -1,6 +1,6 @@
 """The mesher: :func:`mesh_polygon` runs every stage of Bishop's construction.
 
-Stages (ARCHITECTURE.md, "The pipeline"):
+Stages:
 
 1. validate the polygon (:func:`quadmesh.polygon.validate_polygon`);
 2. thick/thin decomposition (:func:`quadmesh.decompose.decompose`, paper §7);

@@ -39,8 +39,8 @@ def project_to_sides(
 def push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarray:
     """Images in the plane of the disk-mesh vertices (paper §7).
 
-    f at every vertex (by per-piece power series where they converge, CONFORMAL.md
-    §1.10), circle vertices projected onto their side, and inside each inner triangle T_i
+    f at every vertex (by per-piece power series where they converge), circle vertices projected
+    onto their side, and inside each inner triangle T_i
     the linear map h(ζ) = g(c) + (ζ − c)·g'(c) with g = f∘τ⁻¹ (a similarity, so the model
     angles of the T_i quads survive exactly).
 

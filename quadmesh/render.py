@@ -1,4 +1,4 @@
-"""Layers of a :class:`~quadmesh.result.MeshResult` as pyvista geometry (ARCHITECTURE.md, rule 1).
+"""Layers of a :class:`~quadmesh.result.MeshResult` as pyvista geometry.
 
 The command line (off-screen PNGs) and the Qt viewer in ``app/`` both draw through this module,
 so a layer looks the same everywhere.  pyvista is imported lazily inside the functions: importing
@@ -7,7 +7,7 @@ so a layer looks the same everywhere.  pyvista is imported lazily inside the fun
 Two views:
 
 * ``"plane"`` — the polygon and what the pipeline built in the plane: ``polygon``,
-  ``thick_pieces``, ``thin_parts`` (parabolic vertex sectors and hyperbolic channels, THIN.md),
+  ``thick_pieces``, ``thin_parts`` (parabolic vertex sectors and hyperbolic channels),
   ``crosscuts``, ``conformal_images`` (the disk pieces of Lemma 2.2 pushed forward by the
   conformal map, coloured by kind), ``final_mesh`` (coloured by corner angle or by each quad's
   worst deviation from 90°, with a colour bar) and ``bad_quads`` (quads with a new angle outside
@@ -305,7 +305,7 @@ def _filled_polygons(polys: Sequence[np.ndarray]) -> pv.PolyData:
 
 
 def _edges(mesh: pv.PolyData) -> pv.PolyData:
-    """All edges of a surface mesh as line cells (GUI-STACK.md: avoids show_edges diagonals)."""
+    """All edges of a surface mesh as line cells (avoids show_edges' diagonals)."""
     import pyvista as pv
 
     if mesh.n_cells == 0:

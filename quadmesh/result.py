@@ -1,4 +1,4 @@
-"""Plain data of the pipeline: options in, every stage out (ARCHITECTURE.md, rule 2).
+"""Plain data of the pipeline: options in, every stage out.
 
 :class:`MeshOptions` holds every knob of :func:`quadmesh.mesh_polygon` with its default and
 the design note that justifies it. :class:`MeshResult` keeps every stage so that the
@@ -26,11 +26,11 @@ class MeshOptions:
     """Every knob of the mesher, with its default.
 
     Attributes:
-        n: steps per half pentagon side (Lemma 4.1; DISK.md §4: N_side = 2n on every
+        n: steps per half pentagon side (Lemma 4.1: N_side = 2n on every
             pentagon side and Carleson top edge). n = 2 is the smallest value whose disk
             chord angles stay in [60°, 120°]; the adaptive loop raises it per thick piece.
         depth_step: spacing of the global depth sequence d_k shared by Carleson
-            quadrilaterals and triangles (Lemmas 5.1, 6.1; DISK.md §5–§6). 1.0 keeps the
+            quadrilaterals and triangles (Lemmas 5.1, 6.1§6). 1.0 keeps the
             pushed-forward angles in range on the bundled examples at a third of the quads of
             the notes' 0.25; where a Carleson image angle leaves [60°, 120°] the adaptive loop
             halves it (down to 0.125).
@@ -38,16 +38,15 @@ class MeshOptions:
             (1 = uniform). The deep rows are thin strips near 90°, so 2 halves their
             number at no measurable cost in angle (measured in the model triangle).
         depth_max: depth d_M of the last Carleson row above the circle; None uses
-            DISK.md's log(8/depth_step) + 2. The last row's cells deviate from 90° by about
+            the full depth log(8/depth_step) + 2. The last row's cells deviate from 90° by about
             e^{−d_M} rad (4.7° at 2.5), so it trades quads (and crosscut vertices) for margin:
             2.5 saves ~12 % of the quads on the examples; when the adaptive loop lowers the
             depth step it also returns to the full depth. It is raised to D5 + 0.5 when the
             inner triangle's deepest landmark D5 (which grows as inner_height shrinks) needs it.
-        inner_height: height h of the inner triangle T_i in the model Carleson triangle
-            (DISK.md §6; the paper's §7 wants it small relative to the triangle).
+        inner_height: height h of the inner triangle T_i in the model Carleson triangle.
         crosscut_ratio: A_eff = g/φ, prevertex gap over the half-width of the arc J_k whose
-            geodesic image is the crosscut around a vertex (CONFORMAL.md §3.2: circularity of
-            f(γ_k) about 1.1·φ/g). 6 (the notes suggest 64): larger J_k leave fewer cover arcs
+            geodesic image is the crosscut around a vertex. 6 (the notes suggest 64): larger J_k
+            leave fewer cover arcs
             and so fewer Carleson pieces and pentagons (−8 to −25 % quads against 16 on the
             examples); the conformal collar straightens the less round crosscut. φ is capped
             so that the A-fold expansions of the I_j stay disjoint (Lemma 2.2's hypothesis).
@@ -60,10 +59,10 @@ class MeshOptions:
             trial, ~0.3 s per piece). Only for pieces with at most 16 arcs and prevertex gaps
             ≥ 1e-6; 1 = off.
         channel_delta: extremal-distance threshold δ below which a channel is a hyperbolic
-            thin part (CONFORMAL.md §2.3); below 3/4, so that the overlap depth 1/(4δ) + 1
+            thin part; below 3/4, so that the overlap depth 1/(4δ) + 1
             stays below 1/δ.
         sector_ratio: λ, radius of the vertex sector over the crosscut's distance from the
-            vertex (THIN.md §A.4).
+            vertex.
         conformal_tol: target residual of the Schwarz–Christoffel parameter problem, in
             [1e-14, 1e-4].
         adaptive: raise n (2 → 3 → 4 → 6) for a thick piece whose pushed-forward quads

@@ -137,7 +137,7 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
 
 
 def deepest_landmark(inner_height: float) -> float:
-    """The deepest triangle landmark D5 (DISK.md §6); the depth sequence must go beyond it."""
+    """The deepest triangle landmark D5; the depth sequence must go beyond it."""
     from .disk.carleson_triangle import triangle_landmarks
 
     return float(triangle_landmarks(inner_height).D5)

@@ -1,4 +1,4 @@
-"""Schwarz–Christoffel disk maps for the thick pieces (CONFORMAL.md §1).
+"""Schwarz–Christoffel disk maps for the thick pieces.
 
 * :class:`DiskMap` — solve ``f : D → Ω`` with ``f(0) = c``; forward, derivative, inverse,
   Taylor series (§1.10) and the accuracy checks of §1.7.

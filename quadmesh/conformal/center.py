@@ -1,4 +1,4 @@
-"""Centre of the largest inscribed disk (CONFORMAL.md §2.4) and the harmonic measure seen from it.
+"""Centre of the largest inscribed disk and the harmonic measure seen from it.
 
 :func:`harmonic_measure` estimates ``ω(c, side_k, Ω)`` for every side by finite elements; for
 the disk map with ``f(0) = c`` the prevertex gaps are exactly ``2π ω`` (§1.5 initial guess).
@@ -129,7 +129,7 @@ def harmonic_measure(
 
     For the disk map with ``f(0) = c`` the prevertex gap of side k is exactly ``2π ω_k``
     (conformal invariance of harmonic measure, paper §2 / Lemma 2.2), so this is the initial
-    guess of the Schwarz–Christoffel parameter problem (CONFORMAL.md §1.5). Computed as the
+    guess of the Schwarz–Christoffel parameter problem. Computed as the
     boundary flux of the discrete Green's function with pole c: P1 finite elements on a
     Delaunay triangulation of boundary samples (spacing ≤ side/2 and ≤ local width /
     ``per_width``) and graded quadtree points. The Delaunay cotangent Laplacian is an

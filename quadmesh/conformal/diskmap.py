@@ -1,4 +1,4 @@
-"""The Schwarz–Christoffel disk map ``f : D → Ω`` with ``f(0) = c`` (CONFORMAL.md §1).
+"""The Schwarz–Christoffel disk map ``f : D → Ω`` with ``f(0) = c``.
 
 ``f(z) = w_j + C ∫_{z_j}^{z} Π_k (1 − s/z_k)^{β_k} ds`` with interior angles ``α_k π`` and
 ``β_k = α_k − 1`` (§1.1). This is the map of Lemma 2.2 of Bishop's paper: the disk mesh is
@@ -57,7 +57,7 @@ _CHUNK = 262_144
 #: Series centres closer than this to a prevertex get their coefficients and values in local
 #: coordinates (differences from the gaps, values from the nearest prevertex): the far-field
 #: tree and the anchor chains work with float64 prevertices, whose ~1e-16 absolute error is a
-#: relative error of 1e-16/R in the terms of the nearest prevertices (CONFORMAL.md §1.8).
+#: relative error of 1e-16/R in the terms of the nearest prevertices.
 CROWD_RADIUS = 1e-8
 
 #: Distance to the nearest prevertex below which offsets from it are formed in long double.
@@ -70,7 +70,7 @@ for reference points ``refs`` in long double, broadcast against ``index``."""
 
 @dataclass(frozen=True)
 class ConformalAccuracy:
-    """The checks of CONFORMAL.md §1.7 for a solved map (all relative, dimensionless).
+    """The accuracy checks of a solved map (all relative, dimensionless).
 
     ``residual``: max |parameter equations|; ``side_error``: max over all n sides of
     ``|C S_k − (w_{k+1} − w_k)| / max side``; ``center_error``: ``|f(0) − c| / diam``;
@@ -454,7 +454,7 @@ def _compress(w: np.ndarray, c: complex, p0: complex, u: complex, s: float):
 
 
 class TaylorSeries:
-    """Taylor series of ``f`` about an interior centre ``c`` (CONFORMAL.md §1.10).
+    """Taylor series of ``f`` about an interior centre ``c``.
 
     ``radius`` is ``R = min_k |z_k − c|``; the series converges for ``|t| < R`` with error
     about ``(|t|/R)^order``. Points are passed as offsets ``t = z − c``.
@@ -1358,7 +1358,7 @@ class DiskMap:
 
     # ------------------------------------------------------------------ checks
     def accuracy(self) -> ConformalAccuracy:
-        """The checks of CONFORMAL.md §1.7 (computed once, then cached)."""
+        """The accuracy checks (computed once, then cached)."""
         if self._accuracy is not None:
             return self._accuracy
         n = self.n

@@ -1,6 +1,6 @@
 """Prevertex configurations in local coordinates and the compound Gauss–Jacobi quadrature.
 
-CONFORMAL.md §1.4 and §1.9 (local coordinates). The Schwarz–Christoffel integrand is
+Local coordinates about clustered prevertices. The Schwarz–Christoffel integrand is
 ``F(s) = Π_j (1 − s/z_j)^{β_j}`` with prevertices ``z_j = exp(iθ_j)`` on the unit circle.
 
 Local coordinates. The configuration is stored through its gaps ``d_k = θ_{k+1} − θ_k``
@@ -264,7 +264,7 @@ def integrate(
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Evaluate the planned integrals ``H_i = ∫ F`` and, optionally, ``∂H_i/∂θ_j``.
 
-    The θ-derivatives (CONFORMAL.md §1.8 (a)) with both ends held fixed:
+    The θ-derivatives with both ends held fixed:
     ``∂H/∂θ_j = iβ_j ∫ F(s) s/(z_j − s) ds`` for ``j ≠ b``. The column of the base
     prevertex ``b`` is left zero: derivatives w.r.t. gaps never need it (see
     :func:`gap_jacobian`). Returns ``(H, J)`` with ``J`` of shape ``(nint, n)`` or None.

@@ -1,6 +1,6 @@
 """Power series of the Schwarz–Christoffel map about interior centres and about prevertices.
 
-CONFORMAL.md §1.10. About an interior centre ``c`` with ``R = min_k |z_k − c|``:
+About an interior centre ``c`` with ``R = min_k |z_k − c|``:
 
 * ``log f'(c+t) = log f'(c) + Σ_{m≥1} b_m t^m`` with ``b_m = −(1/m) Σ_k β_k (z_k − c)^{−m}``;
 * ``f'(c+t) = Σ g_m t^m`` from ``g = exp(log f')`` by ``m g_m = Σ_{j=1..m} j b_j g_{m−j}``;
@@ -72,7 +72,7 @@ def horner(coef: np.ndarray, rows: np.ndarray, tau: np.ndarray) -> np.ndarray:
 # Far-field tree: expansions of Λ(z) = Σ_k β_k log(1 − z/z_k) about many centres at once.
 #
 # A direct sum over all n prevertices for every series centre costs O(n·order) per centre,
-# which makes the push-forward of a disk mesh quadratic in n (CONFORMAL.md §1.10). The tree
+# which makes the push-forward of a disk mesh quadratic in n. The tree
 # below is the downward pass of a fast multipole method with point-to-local translations:
 # a dyadic box B of side h carries the expansion of the prevertices farther than F·h from its
 # centre (they are smooth on B); a child inherits its parent's expansion by an exact
@@ -127,7 +127,7 @@ def p2l(
 
     ``log(1 − (c + s)/z_k) = log((z_k − c)/z_k) − Σ_m (s/(z_k − c))^m/m``; the principal
     branch is kept because the segment from c to any point of the target region avoids the
-    ray ``z_k·[1, ∞)`` (CONFORMAL.md §1.1).
+    ray ``z_k·[1, ∞)``.
     """
     if rows.size == 0:
         return

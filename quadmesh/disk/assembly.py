@@ -9,8 +9,8 @@ canonical mesh:
 * Carleson triangles: ``model_triangle_mesh(depths, h)`` moved by ``τ⁻¹``: ``w ↦ apex``,
   ``−1 ↦ left foot``, ``1 ↦ right foot`` (Lemma 6.1).
 
-All pieces share one depth sequence, and the glueing is by construction (ARCHITECTURE.md
-rule 6): global vertex ids are assigned through the known topology — tile edge ↔ neighbour tile
+All pieces share one depth sequence, and the glueing is by construction: global vertex ids are
+assigned through the known topology — tile edge ↔ neighbour tile
 edge (same canonical index, since ``σ_k`` fixes edge k), quad top ↔ pentagon edge, quad side ↔
 the shared ray of the neighbouring quad or triangle.  Positions computed twice for one vertex
 are only compared as an assertion.  To keep relative accuracy for tiny pieces near T, each
@@ -212,7 +212,7 @@ def _mobius_batch(M: NDArray[np.complex128], z: NDArray[np.complex128]) -> NDArr
 def _three_point_maps(
     z: NDArray[np.complex128], w: NDArray[np.complex128]
 ) -> NDArray[np.complex128]:
-    """Matrices (k, 2, 2) of the Möbius maps sending ``z[0..2] ↦ w[:, 0..2]`` (DISK.md §1)."""
+    """Matrices (k, 2, 2) of the Möbius maps sending ``z[0..2] ↦ w[:, 0..2]``."""
 
     def S(p0, p1, p2):
         m = np.empty((*np.broadcast(p0, p1, p2).shape, 2, 2), dtype=np.complex128)
@@ -254,7 +254,7 @@ def disk_mesh(
         inner_height: height ``h`` of the inner triangle ``T_i`` of the Carleson-triangle model.
         depth_growth: ratio of consecutive depth steps below the last triangle landmark D5
             (1 = uniform; ``depth_sequence(..., growth=)``). Rows below D5 are thin Euclidean
-            strips near 90° (DISK.md §8.5), so coarsening them saves quads.
+            strips near 90°, so coarsening them saves quads.
         depth_max: depth d_M of the last row above the circle (default ``log(8/step) + 2``);
             the cells of the last row deviate from 90° by about ``e^{−d_M}`` rad (§5).
 

@@ -1,4 +1,4 @@
-"""The Carleson-quadrilateral mesh (paper §5, Lemma 5.1; DISK.md §5).
+"""The Carleson-quadrilateral mesh (paper §5, Lemma 5.1).
 
 A Carleson quadrilateral has a geodesic top edge of length L (a pentagon side), two geodesic
 sides perpendicular to the top running down to T, and an arc of T as base.  In the upper
@@ -11,7 +11,7 @@ Mesh vertices ``ζ_{k,m} = e^{t_k}·e^{i(π/2−ψ_m)}``, ``t_k = k·L/N_side``,
 sequence ``0 = d_0 < … < d_M`` plus a final row of ideal points ``e^{t_k}`` on ℝ.  The curvilinear
 angles are exactly 90°; the side vertex at depth ``d_m`` is at hyperbolic distance ``d_m`` from
 the top corner, so neighbouring quads and Carleson triangles match iff they use the same depth
-sequence (DISK.md §5).
+sequence.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The quad mesh of the model Carleson triangle (Bishop, §6 "Meshing the triangles", Lemma 6.1).
 
-Model (DISK.md §6), in the upper half-plane H with the metric |dz|/y:
+Model, in the upper half-plane H with the metric |dz|/y:
 
 * The Carleson triangle ``T`` has vertices ``−1``, ``1`` and the top point ``w = i(1+√2)``.
   Its **left side** runs from ``w`` down to ``−1`` on the circle with centre ``+(1+√2)`` and radius
@@ -20,12 +20,12 @@ Model (DISK.md §6), in the upper half-plane H with the metric |dz|/y:
   ``1/(z − conj w)``.  The other eight use ``log((z−p)/(z−q))`` with ``p, q`` the two common
   points of a pair of opposite side circles.
 * Leaves start on the left and right sides at the depths ``d_k`` of one global sequence and are
-  continued from region to region (the "leaf routes" of DISK.md §6) until they reach the base, the
+  continued from region to region (the "leaf routes") until they reach the base, the
   centre ``c`` or the opposite side, where by symmetry they end at the same depth.
 
 Conformity is built in: every region boundary arc carries **one** shared list of vertices, computed
 once by transferring the points of its source side across one region; each region's tensor grid
-takes its four sides from these lists and only computes its interior vertices (DISK.md §6, CAUTION).
+takes its four sides from these lists and only computes its interior vertices.
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def right_side_depth(z) -> np.ndarray:
 
 @dataclass(frozen=True)
 class TriangleLandmarks:
-    """Landmark points of the model triangle for inner-triangle height ``h`` (DISK.md §6).
+    """Landmark points of the model triangle for inner-triangle height ``h``.
 
     ``v1, v3, v5`` lie on the left side, ``v2, v4, v6`` are their mirror images on the right side,
     ``v7 = −h(√2−1)`` and ``v8 = h(√2−1)`` on the base.  ``D1, D3, D5`` are the hyperbolic distances
@@ -227,7 +227,7 @@ def triangle_landmarks(h: float = 1.0) -> TriangleLandmarks:
 def depth_sequence(
     h: float = 1.0, step: float = 0.25, d_max: float | None = None, growth: float = 1.0
 ) -> np.ndarray:
-    """The global depth sequence ``0 = d_0 < d_1 < … < d_M = d_max`` (DISK.md §5, §6).
+    """The global depth sequence ``0 = d_0 < d_1 < … < d_M = d_max``.
 
     It contains the landmark depths ``D1, D3, D5`` of :func:`triangle_landmarks` exactly; each of
     the knot intervals ``[0,D1], [D1,D3], [D3,D5]`` is split into ``⌈len/step⌉`` equal steps, so
@@ -523,7 +523,7 @@ class _Geometry:
         }
 
 
-# Leaf routes (DISK.md §6) for a leaf starting on the LEFT side: (region, entry side) pairs.
+# Leaf routes for a leaf starting on the LEFT side: (region, entry side) pairs.
 _ROUTES = (
     ("0<d<D1", (("R1", 1), ("R9", 0), ("R8", 0), ("R7", 3))),
     ("D1<d<D3", (("R2", 2), ("Q_v", 0), ("Q_R", 1), ("R6", 0))),
@@ -619,7 +619,7 @@ def model_triangle_mesh(depths: np.ndarray, h: float = 1.0) -> ModelTriangleMesh
     ``depths`` is the global sequence of :func:`depth_sequence` (``0 = d_0 < … < d_M``, containing
     ``D1, D3, D5`` of ``h``, ``d_M > D5``).  The left/right side vertices are at hyperbolic distance
     ``d_k`` from ``w``; leaves are continued through the nine right circular quadrilaterals and the
-    three pencil quadrilaterals of ``T_i`` along the leaf routes of DISK.md §6; every region is a
+    three pencil quadrilaterals of ``T_i`` along the leaf routes; every region is a
     tensor grid of its two leaf families whose sides are shared vertex lists (conforming by
     construction).  Below the last leaf ``d_M`` one row of cells reaches the base ℝ.
 
@@ -670,7 +670,7 @@ def model_triangle_mesh(depths: np.ndarray, h: float = 1.0) -> ModelTriangleMesh
             new = new.real + 0j
         return np.concatenate([[a], vs.add(new), [b]])
 
-    # Propagation order: every side list is computed once, from its source side (DISK.md §6).
+    # Propagation order: every side list is computed once, from its source side.
     a_v1 = carry("R1", or_a, 2, iv, iv1)  # right leaves 0<d<D1
     a_v2 = rev(carry("R1", rev(ol_a), 1, iv2, iv))  # left leaves 0<d<D1
     til_t = carry("R2", rev(ol_b), 2, iv, iml)  # left leaves D1<d<D3

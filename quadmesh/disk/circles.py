@@ -8,7 +8,7 @@ normalised so that ``|B|² − A C = 1``.  For a circle with centre ``a`` and ra
 ``A = 1/r``, ``B = −a/r``, ``C = (|a|² − r²)/r``; for a line ``A = 0``, ``B`` is a unit normal and
 ``C/2`` the (signed) offset.  All functions accept numpy arrays (broadcasting) as well as scalars.
 
-These are the Euclidean primitives of DISK.md §1 ("Generalised circles") used by the
+These are the Euclidean primitives ("generalised circles") used by the
 Carleson-triangle mesh of Bishop's §6 (Lemma 6.1): circle through three points with an exact-line
 fallback, the circle through a point with a prescribed tangent orthogonal to another circle,
 inversion, circle∩circle via the radical line, line∩line, the inversive distance and the
@@ -99,8 +99,7 @@ def circle_through(z1, z2, z3, line_tol: float = LINE_TOL) -> GCircle:
 
     Computed division-free in coordinates centred at ``z1`` (Cramer's rule), then normalised.  If
     the relative curvature ``|A|·size`` is below ``line_tol`` the points are treated as collinear
-    and an **exact line** is returned (DISK.md §1: the spokes of the inner triangle are straight
-    lines).
+    and an **exact line** is returned.
     """
     z1, z2, z3 = np.broadcast_arrays(_c(z1), _c(z2), _c(z3))
     a = z2 - z1
@@ -178,7 +177,7 @@ def orthogonal_circle_with_tangent(p, tau, target: GCircle, tol: float = 1e-14) 
     """Generalised circle through ``p`` with unit tangent ``tau`` there, orthogonal to ``target``.
 
     It passes through ``p* = invert(p, target)``; its centre is ``p + iτ t`` with
-    ``t = −|p−p*|² / (2 Re(conj(iτ)(p−p*)))`` (DISK.md §6).  If ``p*`` lies on the tangent line the
+    ``t = −|p−p*|² / (2 Re(conj(iτ)(p−p*)))``.  If ``p*`` lies on the tangent line the
     result is that line.
     """
     p = _c(p)

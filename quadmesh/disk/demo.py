@@ -20,7 +20,7 @@ EXAMPLES: dict[str, tuple[NDArray[np.float64], float]] = {
         25.0,
     ),
 }
-"""Interval sets (start, length) and A of the examples of DISK.md §3 (3 intervals A=16,
+"""Interval sets (start, length) and A of the worked examples (3 intervals A=16,
 1 interval A=16, 5 intervals A=25)."""
 
 

@@ -1,5 +1,5 @@
 """Lemma 2.2: the region W and its decomposition into right pentagons, Carleson quadrilaterals
-and Carleson triangles (paper §3; DISK.md §3).
+and Carleson triangles (paper §3).
 
 Given arcs ``I_j`` of T whose A-fold concentric expansions are disjoint and shorter than π:
 
@@ -373,7 +373,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         js, jl, _, _ = minimal_containing_arc(es, el)
     ratio = jl / el
 
-    # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r (DISK.md §2)
+    # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r
     # a point 0.05 above the top point (any point that close lies in a tile with an edge on
     # γ_j, also next to a tile vertex on γ_j); 1 − |top| = 2t/(1+t), t = tan(|J|/4), is used
     # directly so that the distance to 0 keeps its relative accuracy for tiny J

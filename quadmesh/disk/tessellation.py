@@ -1,4 +1,4 @@
-"""The right-pentagon tessellation T5 and its arc family I5 (paper §3, Lemma 2.1; DISK.md §2).
+"""The right-pentagon tessellation T5 and its arc family I5 (paper §3, Lemma 2.1).
 
 A tile is stored as the isometry ``g`` with ``tile = g(P0)``, where ``P0`` is the regular right
 pentagon centred at 0 with vertices ``V_k = R·e^{2πik/5}``.  The neighbour of tile ``g`` across
@@ -327,7 +327,7 @@ def locate(z: ArrayLike, max_steps: int = 400) -> Isometry:
     """Tiles containing the points ``z`` (1-d array, |z| < 1), as a stack of isometries.
 
     Starting from the identity, reflect across the most violated edge of P0 in the current
-    frame until ``g⁻¹(z)`` lies in P0 (DISK.md §2, "point location"); the number of steps is
+    frame until ``g⁻¹(z)`` lies in P0; the number of steps is
     proportional to the hyperbolic distance of ``z`` from 0.  Vectorised over the points; the
     tiles are extended-precision (clongdouble) isometries.
     """
@@ -645,7 +645,7 @@ StopRule = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.int64
 def grow_tiles(
     seeds: Isometry, stop: StopRule, max_tiles: int = 2_000_000
 ) -> tuple[Isometry, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
-    """Breadth-first growth of a region of tiles by reflection (DISK.md §2 "Generation").
+    """Breadth-first growth of a region of tiles by reflection.
 
     ``stop(start, length)`` receives the far arcs of a batch of edges and returns, per edge, a
     label ``>= 0`` if the growth must not cross that edge (the label is recorded) and ``-1``

@@ -1,4 +1,4 @@
-"""Hyperbolic-geometry toolkit for the disk construction (paper §2, DISK.md §0–§1).
+"""Hyperbolic-geometry toolkit for the disk construction (paper §2§1).
 
 Disk model D (``ds = 2|dz|/(1−|z|²)``, curvature −1), upper half-plane H (``ds = |dz|/y``),
 Klein model for intersections.  Points are complex numbers; geodesics are pairs of ideal

@@ -6,7 +6,7 @@ oriented from ``p`` to ``q``.  Every function broadcasts over numpy arrays of co
 
 Orientation convention used throughout this package: **left of the oriented geodesic p→q is
 positive** (:func:`side_of_geodesic` returns +1 there, and hypercycles at distance ``d > 0`` lie
-there).  Formulas follow DISK.md §1; the robust forms (Klein intersection, endpoint-based
+there).  The robust forms (Klein intersection, endpoint-based
 reflection) avoid the huge centres of near-diameters.
 """
 
@@ -186,7 +186,7 @@ def side_of_geodesic(p: ArrayLike, q: ArrayLike, z: ArrayLike) -> FloatArray:
     """+1 if ``z`` lies left of the geodesic oriented ``p→q``, −1 if right, 0 on it.
 
     Evaluated in the Klein model, where the geodesic is the straight chord [p, q]; robust for
-    diameters and near-diameters.  (DISK.md's ``sign(|z−c|²−r²)`` is +1 on the side of 0.)
+    diameters and near-diameters.
     """
     p, q = _unit(p), _unit(q)
     k = to_klein(z)
@@ -223,7 +223,7 @@ def reflect(p: ArrayLike, q: ArrayLike, z: ArrayLike) -> ComplexArray:
 
 
 def einstein_midpoint(z: ArrayLike, axis: int = -1) -> ComplexArray:
-    """Hyperbolic centre of points ``z`` (Einstein midpoint, DISK.md §1).
+    """Hyperbolic centre of points ``z`` (Einstein midpoint).
 
     Map to Klein, average with Lorentz weights ``γ = 1/√(1−|k|²)``, map back.  Exact centre for
     the vertices of a regular polygon.

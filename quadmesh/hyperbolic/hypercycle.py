@@ -1,4 +1,4 @@
-"""Hypercycles (equidistant curves) of a geodesic and the frame Φ: D→H (paper §5, DISK.md §1).
+"""Hypercycles (equidistant curves) of a geodesic and the frame Φ: D→H (paper §5).
 
 For the geodesic with ideal endpoints ``(a, b)`` the frame ``Φ(z) = λ(z−a)/(z−b)`` sends
 ``a ↦ 0``, ``b ↦ ∞`` and the geodesic's top point (nearest 0) to ``i``; the geodesic becomes the

@@ -1,4 +1,4 @@
-"""Möbius maps and isometries of the hyperbolic disk (paper §2, DISK.md §0–§1).
+"""Möbius maps and isometries of the hyperbolic disk (paper §2§1).
 
 An isometry (or any Möbius / anti-Möbius map) is stored as a pair ``(M, sigma)`` acting by
 ``z ↦ M·(conj(z) if sigma else z)``, where ``M·w = (M00 w + M01)/(M10 w + M11)``.
@@ -91,7 +91,7 @@ def _mobius_apply_batched(M: ComplexArray, z: ComplexArray) -> ComplexArray:
 
 @dataclass(frozen=True, eq=False)
 class Isometry:
-    """Isometry / Möbius pair ``z ↦ M·(conj z if sigma else z)``, single or stacked (DISK.md §0).
+    """Isometry / Möbius pair ``z ↦ M·(conj z if sigma else z)``, single or stacked.
 
     Attributes:
         M: complex array of shape ``(2, 2)`` (single) or ``(k, 2, 2)`` (stack); complex128, or
@@ -249,7 +249,7 @@ def _to_zero_inf_one(z0: complex, z1: complex, z2: complex) -> ComplexArray:
 def mobius_from_points(z: ArrayLike, w: ArrayLike) -> Isometry:
     """The Möbius map sending ``z[k] ↦ w[k]`` (k = 0, 1, 2; finite distinct points).
 
-    Built as ``S_w⁻¹·S_z`` where ``S_z`` sends ``z0, z1, z2 ↦ 0, ∞, 1`` (DISK.md §1).  Returned as
+    Built as ``S_w⁻¹·S_z`` where ``S_z`` sends ``z0, z1, z2 ↦ 0, ∞, 1``.  Returned as
     an orientation-preserving :class:`Isometry` pair (it is an isometry only if it maps D to D).
     """
     z = np.asarray(z, dtype=np.complex128).ravel()

@@ -1,4 +1,4 @@
-"""Meshes of the thin parts (paper, section "Meshing the thin parts"; THIN.md).
+"""Meshes of the thin parts (paper, section "Meshing the thin parts").
 
 * :func:`mesh_vertex_sector` / :func:`parabolic_mesh`: parabolic thin part between a polygon
   vertex and a crosscut.

@@ -3,8 +3,7 @@
 Paper: Bishop, "Optimal angle bounds for quadrilateral meshes", section "Meshing the thin
 parts" (figure "HyperConnect"): the P vertices of crosscut gamma_1 are joined to the P vertices
 of gamma_2 by polygonal chains through intermediate circular crosscuts; the chains approximate
-logarithmic spirals, i.e. the image under exp of straight segments in log coordinates. Design
-notes THIN.md §B.
+logarithmic spirals, i.e. the image under exp of straight segments in log coordinates.
 
 Walls (:class:`Walls`):
 
@@ -131,7 +130,7 @@ class Walls:
 
 
 def default_crosscut_count(dy_max: float, eta_deg: float = 5.0) -> int:
-    """J with J + 1 = ceil(max|dy| / eta) (THIN.md §B.2): each chain segment turns <= eta."""
+    """J with J + 1 = ceil(max|dy| / eta): each chain segment turns <= eta."""
     return max(0, math.ceil(dy_max / math.radians(eta_deg) - 1e-12) - 1)
 
 
@@ -154,7 +153,7 @@ def mesh_channel(
     budget ``eta_deg`` (J + 1 = ceil(max_k |y2_k - y1_k| / eta), wedge only; parallel walls give
     straight chains, J = 0), raised to J + 1 >= ell / (min vertical gap) when
     ``bounded_geometry`` (cells about square in coordinates; end of the paper's section).
-    Paper: section "Meshing the thin parts", figure "HyperConnect"; THIN.md §B.
+    Paper: section "Meshing the thin parts", figure "HyperConnect"
 
     Raises:
         ThinPartError: different vertex counts, endpoints off the walls, crosscuts not ordered

@@ -1,7 +1,7 @@
 """Conformal collar: a quad mesh that straightens an off-centre crosscut of a thin part.
 
 Paper: Bishop, "Optimal angle bounds for quadrilateral meshes", section "Meshing the thin
-parts". The parabolic and hyperbolic constructions there (THIN.md §A, §B) assume that the
+parts". The parabolic and hyperbolic constructions there assume that the
 crosscut gamma is an approximate circle about the vertex (or an approximate perpendicular segment
 of a channel). In the pipeline gamma is the image of a hyperbolic geodesic whose arc is not
 centred on the prevertex, so in strip coordinates it is an S-shaped graph x = X(y) that meets both

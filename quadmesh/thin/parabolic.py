@@ -1,8 +1,7 @@
 """Quad mesh of a parabolic thin part: the region between a polygon vertex and a crosscut.
 
 Paper: Bishop, "Optimal angle bounds for quadrilateral meshes", section "Meshing the thin
-parts" (figures "compose-split", "Mesh 1", "Mesh 2", "Same-Sector", "big angle"); design notes
-THIN.md §A.
+parts" (figures "compose-split", "Mesh 1", "Mesh 2", "Same-Sector", "big angle").
 
 Construction (all in a unit frame with the apex at 0 and side 1 along the positive axis):
 
@@ -10,18 +9,17 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
 2. Mesh 1 fills the disk sector of radius r0 = 1 of each subsector (two chords of span alpha/2).
 3. Levels: level j is the annulus [r_j, r_{j+1}]; every chord of span phi_j = alpha/2^j that is
    refined in this level gets Mesh 2 (one inner chord -> two outer chords; reconstructed in
-   THIN.md §A.3, exact angles th1..th5, 60, 90, 120, 60 + phi), every other chord crosses the
+   reconstructed: exact angles th1..th5, 60, 90, 120, 60 + phi), every other chord crosses the
    level as a plain strip cut by concentric chords. Mesh 2's radial vertices form a "3-set" on
    one side and a "2-set" on the other; walking in increasing angle, each Mesh 2 piece is
    reflected or not so that its smaller-angle ray carries the set the previous piece left there,
-   and plain strips carry the current set (THIN.md §A.4; the set before the first piece is
-   chosen per level to give the strips fewer cells). All refined chords of a level have the
+   and plain strips carry the current set. All refined chords of a level have the
    same span and inner radius, so the level's radii are common.
 4. The chords form a binary refinement tree: it is chosen top-down so that its P-1 leaves end at
    the polar angles of the crosscut vertices g_k as closely as the dyadic angles allow (each tree
    boundary is matched with the nearest crosscut vertex that leaves room for the minimum
    refinement on both sides). This handles crosscuts whose vertices are strongly graded towards
-   the sides (geodesic images, CONFORMAL.md §3), where a single greedy partial level cannot.
+   the sides (geodesic images), where a single greedy partial level cannot.
    Every chord is refined at least once after Mesh 1, so the outer spans are <= alpha/4 <= 30°.
    Because every level is crossed by all chords (plain strips), the depth of the deepest leaf
    sets the quad count; the tree is therefore capped at the smallest depth whose outer vertices
@@ -33,11 +31,12 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
    joined to g_k by the connection quads (figure "Same-Sector"). When the straight segments
    s_k g_k give angles too far from 90° (the dyadic tree cannot always put s_k at g_k's angle,
    e.g. when P = 4m + 1 leaves no choice), the segments are replaced by log-spiral chains through
-   J intermediate rings, i.e. the channel construction of THIN.md §B on the annulus between the
+   J intermediate rings, i.e. the channel construction (hyperbolic thin part) on the annulus between
+   the
    sector and the crosscut; if needed the sector is also shrunk (lam * 0.4, 0.16, 0.064), which
    lengthens that annulus in log coordinates and flattens the spirals. The first (lam, J) with
    all connection angles in [65°, 115°] is used, else the best one within [60°, 120°].
-6. Checks (THIN.md check_mesh) use coordinates relative to the apex, so a sector that is tiny
+6. Checks use coordinates relative to the apex, so a sector that is tiny
    compared with its distance from the origin is not misjudged by cancellation in the shoelace
    sum. Exact 60°/120° angles of Mesh 1 / Mesh 2 (degree-3 vertices with three 120° angles admit
    no slack) are still perturbed by rounding of the absolute coordinates, about
@@ -74,14 +73,14 @@ _MAX_DEPTH = 56
 # refinement tree (see _trees): |angle(s_k) - angle(g_k)| <= _MISMATCH * log(1 / lam).
 _MISMATCH = 0.15
 
-# Shape constants of Mesh 2 (THIN.md §A.3); the angles do not depend on them.
+# Shape constants of Mesh 2; the angles do not depend on them.
 _KR = 1.0 / math.sqrt(3.0) + 0.25
 _KT = 0.30
 _KTOP = 0.40
 
 
 def split_count(theta: float) -> int:
-    """Number m of subsectors: 1 for theta < 120°, 2 for theta < 240°, else 3 (THIN.md §A.1)."""
+    """Number m of subsectors: 1 for theta < 120°, 2 for theta < 240°, else 3."""
     deg = math.degrees(theta)
     if deg < 120.0 - 1e-9:
         return 1
@@ -105,7 +104,7 @@ def _ray_hit(p: complex, d: complex, u: complex) -> complex:
 
 
 def mesh2_local(phi: float) -> dict[str, object]:
-    """Mesh 2 (the paper's figure "Mesh 2", reconstructed in THIN.md §A.3) for inner radius 1.
+    """Mesh 2 (the paper's figure "Mesh 2", reconstructed here) for inner radius 1.
 
     Local frame: apex at 0, bisector along +i, piece angle ``phi`` (radians, 0 < phi <= 60°).
     Returns the named points (complex), the radii of the radial-side vertices
@@ -249,7 +248,7 @@ def _trees(psi: np.ndarray, m: int, alpha: float, lam: float) -> Iterator[list[_
     with the depth of the deepest leaf, and deep levels also shrink the smallest Mesh 2 pieces.
     The first candidate is the shallowest depth-capped tree whose outer vertices lie within
     ``_MISMATCH * log(1/lam)`` radians of the polar angles of the g_k: the connection chains
-    then have slope <= _MISMATCH in log-polar coordinates (angle change <= ~9°, THIN.md §B).
+    then have slope <= _MISMATCH in log-polar coordinates (angle change <= ~9°).
     When even the uncapped tree (leaves follow the crosscut as closely as the dyadic angles and
     the minimum refinement allow) misses by more, the bound is its mismatch + 1°. The uncapped
     tree is the fallback (the only candidate when no cap changes anything).
@@ -344,8 +343,8 @@ def mesh_vertex_sector(
     two sides. All new angles are in [60°, 120°] (the apex angle is the original one when
     theta < 120°). ``lam`` is the sector radius relative to min|g_k - v| (shrunk automatically
     when the connection zone needs it); ``max_tilt_deg`` bounds the angle between a crosscut
-    chord and the circle about the apex (measured: 20° still meshes fine; THIN.md's sweep used
-    <= 9°). Paper: section "Meshing the thin parts"; THIN.md §A with the refinement-tree
+    chord and the circle about the apex (measured: 20° still meshes fine sweep used
+    <= 9°). Paper: section "Meshing the thin parts" with the refinement-tree
     schedule and connection rings described in this module's docstring.
 
     Raises:
@@ -423,7 +422,7 @@ def _sector_from_tree(
     n_top = m * _ONE
     b = _Builder(alpha, n_top, theta_eff)
 
-    # Mesh 1 (paper figure "Mesh 1", THIN.md §A.2) in each subsector, r0 = 1.
+    # Mesh 1 (paper figure "Mesh 1") in each subsector, r0 = 1.
     r0 = 1.0
     alpha_deg = math.degrees(alpha)
     th1 = 120.0 - alpha_deg / 2.0
@@ -526,7 +525,8 @@ def _sector_from_tree(
 
     # Connection zone (figure "Same-Sector"): chains from s_k to g_k, straight (J = 0) or, when
     # the angular mismatch between s_k and g_k is too large for straight segments, log-spiral
-    # chains through J intermediate rings (the channel construction of THIN.md §B applied to
+    # chains through J intermediate rings (the channel construction of the hyperbolic thin part
+    # applied to
     # the annular sector). If no J works, the sector is shrunk (smaller lam), which lengthens
     # the annulus in log coordinates and flattens the spirals.
     attempts: list[str] = []
@@ -639,7 +639,7 @@ def _grid_deviation(z: np.ndarray) -> float:
 
 
 def _verify(mesh: ThinMesh, n_pts: int, v: complex) -> None:
-    """Conformity and angle checks of THIN.md (check_mesh) before returning.
+    """Conformity and angle checks before returning.
 
     Areas and angles are computed from the returned coordinates taken relative to the apex
     (an exact translation for nearby floats), so a sector that is tiny compared with its

@@ -1,7 +1,7 @@
 """Interactivity of quadmesh-app on big meshes: wall-clock time of the GUI operations a user
 repeats (run under an X server, e.g. ``xvfb-run``; not a test)::
 
-    PYTHONPATH=. xvfb-run -a -s "-screen 0 1280x1024x24" python -m quadmesh.gui_bench \\
+    PYTHONPATH=. xvfb-run -a -s "-screen 0 1280x1024x24" python -m app.gui_bench \\
         --example l_shape --example star_100 --example noisy_circle_1000
 
 For each polygon (meshed here first, the time is printed) it shows the result in the real
@@ -73,7 +73,7 @@ def time_operations(win: object, app: object, repeat: int = 5) -> dict[str, floa
 
 def main(argv: list[str] | None = None) -> int:
     """Mesh each polygon, show it in the app and print a table of the operation times."""
-    p = argparse.ArgumentParser(prog="python -m quadmesh.gui_bench", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m app.gui_bench", description=__doc__)
     p.add_argument("--example", action="append", default=[], help="bundled example name")
     p.add_argument("--repeat", type=int, default=5)
     args = p.parse_args(argv)
