@@ -379,7 +379,7 @@ def ladder_layout(
     q1 = np.where(fan_a, R.pos[b2], np.where(fan_b, L.pos[nextvL[a1]], L.pos[a2]))
     q2 = np.where(fan_a, R.pos[nextvR[b1]], np.where(fan_b, L.pos[a2], R.pos[b2]))
     q3 = R.pos[b1]
-    cost, ok = _cell_cost(q0, q1, q2, q3, margin, None)
+    cost, ok = _cell_cost(q0, q1, q2, q3, margin)
     arcs = [(src[ok], dst[ok], cost[ok])]
 
     # --- cap cells at both ends --------------------------------------------------------------
@@ -412,7 +412,7 @@ def ladder_layout(
             q1 = np.where(c_l, L.pos[last_l[0]] if last_l.size else 0, np.full(pa.size, tipz))
             q2 = np.where(c_l, np.full(pa.size, tipz), R.pos[last_r[0]] if last_r.size else 0)
             q3 = R.pos[pb]
-        cost, ok = _cell_cost(q0, q1, q2, q3, margin, None)
+        cost, ok = _cell_cost(q0, q1, q2, q3, margin)
         ok &= sel
         idx = np.flatnonzero(ok)
         if end == 0:
@@ -488,7 +488,7 @@ def ladder_layout(
                     if C.theta[ap] - th < 2 * lo_ang:
                         continue
                     try:
-                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1), MIN_ROWS)[4]
+                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1))[4]
                     except ThinPartError:
                         continue
                     if a_.min() < lo_ang or a_.max() > 120.0 - margin:
@@ -671,7 +671,7 @@ def _facing_distance(pos, normal, boundary, floor: float, reach: float) -> np.nd
 
 def _quad_cap_ok(q: np.ndarray, margin: float) -> bool:
     """Whether a four-corner cap cell is admissible."""
-    _, ok = _cell_cost(q[0:1], q[1:2], q[2:3], q[3:4], margin, None)
+    _, ok = _cell_cost(q[0:1], q[1:2], q[2:3], q[3:4], margin)
     return bool(ok[0])
 
 
@@ -698,7 +698,7 @@ def _round_cap_cost(pts: np.ndarray) -> float | None:
         return None
     # the connection quads between the sector's core and the cap's points
     try:
-        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1), MIN_ROWS)[4]
+        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1))[4]
     except ThinPartError:
         return None
     if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
@@ -706,7 +706,7 @@ def _round_cap_cost(pts: np.ndarray) -> float | None:
     return 3.0 + float(np.abs(a_ - 90.0).max()) / 30.0
 
 
-def _cell_cost(q0, q1, q2, q3, margin, width):
+def _cell_cost(q0, q1, q2, q3, margin):
     """Cost of the quadrilateral cells (q0, q1, q2, q3) and whether each is admissible (convex,
     counter-clockwise, corners in [60° + margin, 120° − margin])."""
     c = np.stack([q0, q1, q2, q3], axis=-1)
@@ -722,15 +722,17 @@ def _cell_cost(q0, q1, q2, q3, margin, width):
 
 
 def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
-    """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`) refined by
-    bilinear grids (:func:`quadmesh.cells.refine_layout`) with about ``across`` quads across
-    the corridor and roughly square quads along it.
+    """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`), its round
+    ends and bends meshed as vertex sectors, and its cells refined by runs of rungs
+    (:func:`_refine_ladder`) with about ``across`` quads across the corridor and roughly square
+    quads along it.
 
-    Every new angle lies in [60°, 120°]: every cell is convex with corners in [61°, 119°]
-    (bilinear grid argument).
+    Every new angle lies in [60°, 120°]: cells are convex with corners in [60.05°, 119.95°] and
+    refined as bilinear grids (the bilinear argument), the sectors' angles are exact or checked,
+    and the ruled cells of runs that morph between two sectors are checked.
 
     Raises:
-        ThinPartError: no ladder layout exists.
+        ThinPartError: no ladder layout exists, or a sector or morphing run fails its check.
     """
     z = np.asarray(z, dtype=np.complex128)
     return _mesh_layout(ladder_layout(z), z, across, {})
@@ -763,7 +765,7 @@ def _mesh_layout(
     built = []
     if structs:
         n_pts = _sector_points(max(len(g) - 1 for _, g, _ in structs))
-        base = [_sector_mesh(o, V[g], n_pts, MIN_ROWS, g) for o, g, _ in structs]
+        base = [_sector_mesh(o, V[g], n_pts, 0, g) for o, g, _ in structs]
         # every fixed rung carries the same number of points: pad with connection rows
         counts = []
         for (_o, _g, kind), m in zip(structs, base):
@@ -776,7 +778,7 @@ def _mesh_layout(
         if caps_n and (target - caps_n[0]) % 2:
             target += 1
         for (o, g, kind), c in zip(structs, counts):
-            rings = MIN_ROWS + ((target - c) // 2 if kind == "cap" else target - c)
+            rings = (target - c) // 2 if kind == "cap" else target - c
             m = _sector_mesh(o, V[g], n_pts, rings, g)
             a_ = m[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
@@ -1017,8 +1019,6 @@ def _refine_ladder(
 
 #: Radius of the Mesh 1 / Mesh 2 core of a sector (round end or bend), relative to its sides.
 CAP_CORE = 0.25
-#: Rows of connection quads between a sector's core and its crosscut, at least.
-MIN_ROWS = 0
 
 
 @functools.lru_cache(maxsize=64)
