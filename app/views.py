@@ -119,7 +119,7 @@ class _MouseFilter(QObject):
             if handled:
                 v.end_interaction()
             else:  # VTK ends its pan with one more (light) frame: full detail after it
-                QTimer.singleShot(0, v.end_interaction)
+                QTimer.singleShot(0, v, v.end_interaction)  # dropped if v is gone
             return handled
         return self._dispatch(obj, event)
 

@@ -1120,8 +1120,12 @@ class MainWindow(QMainWindow):
             return True
         loop = QEventLoop()
         self.runner.idle.connect(loop.quit)
-        QTimer.singleShot(timeout_ms, loop.quit)
+        timer = QTimer(loop)  # owned by the loop: never fires after it is gone
+        timer.setSingleShot(True)
+        timer.timeout.connect(loop.quit)
+        timer.start(timeout_ms)
         loop.exec()
+        timer.stop()
         self.runner.idle.disconnect(loop.quit)
         return not self.runner.busy
 

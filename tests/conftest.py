@@ -35,8 +35,7 @@ def main_window(qtbot, tmp_path):
     from app.window import MainWindow
 
     settings = QSettings(str(tmp_path / "quadmesh-app.ini"), QSettings.Format.IniFormat)
-    win = MainWindow(popups=False, settings=settings)
-    qtbot.addWidget(win)
+    win = MainWindow(popups=False, settings=settings)  # closed and destroyed below
     win.resize(1280, 860)
     win.show()
     qtbot.waitExposed(win)
@@ -45,3 +44,18 @@ def main_window(qtbot, tmp_path):
     yield win
     win.shutdown()
     win.close()
+    _destroy_now(win)
+
+
+def _destroy_now(win) -> None:
+    """Destroy ``win`` and everything it owns before the next test starts: its deferred
+    deletions and timers run here, not inside the next test's event loop."""
+    import gc
+
+    from PySide6.QtCore import QCoreApplication, QEvent
+
+    win.deleteLater()
+    for _ in range(3):
+        QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+        QCoreApplication.processEvents()
+    gc.collect()
