@@ -38,6 +38,7 @@ from .polygon import Polygon, validate_polygon
 from .progress import Run, running
 from .result import MeshOptions, MeshResult, ThinPartResult
 from .thick import (
+    KeptStages,
     PieceWork,
     collect_angle_faults,
     disk_and_image,
@@ -189,7 +190,7 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
                 asm, pieces, thin, dec = armed
     except QuadmeshError as exc:
         if not isinstance(exc, Cancelled) and exc.partial is None:
-            exc.partial = PartialResult(poly, dec, origin)
+            exc.partial = PartialResult.of(exc, poly, dec, origin)
         raise
 
     report("verify", 0.9, 1.0)
@@ -238,8 +239,20 @@ def _more_help(options: MeshOptions) -> str:
 def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]):
     """Bishop's construction proper: every thick piece's map, disk mesh and push-forward, then
     the thin parts glued onto them, in the adaptive loop (one (n, depth step) for all pieces).
-    Returns the assembler, the thick-piece results and the thin-part results."""
-    work: list[PieceWork] = []
+    Returns the assembler, the thick-piece results and the thin-part results. A failure
+    carries what the thick pieces had computed (:meth:`quadmesh.thick.KeptStages.attach`)."""
+    kept = KeptStages()
+    try:
+        return _thick_and_thin(dec, options, report, timings, kept)
+    except QuadmeshError as exc:
+        if not isinstance(exc, Cancelled):
+            kept.attach(exc)
+        raise
+
+
+def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float], kept):
+    """The stages of :func:`_mesh_thick_and_thin`, keeping the pieces' work in ``kept``."""
+    work: list[PieceWork] = kept.work
     for i, piece in enumerate(dec.thick):
         m = len(dec.thick)
         report("conformal map", 0.1 + 0.3 * i / m, 0.1 + 0.3 * (i + 1) / m)
@@ -252,7 +265,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
     fixes: list[str] = []
     while True:  # thin parts failing -> raise n and rebuild
         while True:
-            disks = []
+            disks = kept.start(n, step)
             bad_kind: dict[str, tuple[float, float, int]] = {}
             for i, pd in enumerate(work):
                 report("disk mesh", 0.4 + 0.3 * i / len(work), 0.4 + 0.3 * (i + 1) / len(work))
@@ -280,7 +293,8 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
                 raise DiskConstructionError(
                     f"mapped disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
                     f"step {step:g}); the conformal map distorts the disk mesh too much there. "
-                    f"{_more_help(options)}"
+                    f"{_more_help(options)}",
+                    piece=next(iter(bad_kind.values()))[2],
                 )
 
         asm = Assembler()

@@ -480,7 +480,7 @@ def _crosscut_lines(result: Any) -> list[np.ndarray]:
     geodesics γ_j that cut the vertex sectors (parabolic thin parts) off each thick piece, and
     the crosscuts γ_A, γ_B that bound each channel core (hyperbolic thin parts)."""
     lines: list[np.ndarray] = []
-    for p in result.pieces:
+    for p in _pushed_pieces(result):
         img = np.asarray(p.image, dtype=np.complex128)
         for g in p.disk.gamma:
             g = np.asarray(g, dtype=np.int64)
@@ -490,6 +490,13 @@ def _crosscut_lines(result: Any) -> list[np.ndarray]:
         for c in ch.crosscuts:
             lines.append(_as_complex(c))
     return lines
+
+
+def _pushed_pieces(result: Any) -> list[Any]:
+    """The thick pieces of ``result`` whose disk mesh was built and pushed forward (all of a
+    finished run's; a failed run's :class:`~quadmesh.errors.PartialResult` may hold pieces
+    that stopped earlier)."""
+    return [p for p in result.pieces if p.disk is not None and p.image is not None]
 
 
 def _layer_crosscuts(result: Any) -> list[LayerPart]:
@@ -513,7 +520,7 @@ def _kind_parts(z: np.ndarray, quads: np.ndarray, kinds: np.ndarray, opacity: fl
 
 def _layer_conformal_images(result: Any) -> list[LayerPart]:
     zs, qs, ks, off = [], [], [], 0
-    for p in result.pieces:
+    for p in _pushed_pieces(result):
         img = np.asarray(p.image, dtype=np.complex128)
         zs.append(img)
         qs.append(np.asarray(p.disk.quads, dtype=np.int64) + off)
@@ -653,7 +660,8 @@ def build_disk_layer(
     """Geometry of a disk-view layer from a ``DiskMesh`` (and, for ``"prevertices"``, the
     prevertices of the conformal map and the arcs I_j).  ``"tessellation"`` needs no disk mesh;
     it shows the tiles within ``tessellation_depth`` reflections of the tile that contains
-    ``tessellation_center``.
+    ``tessellation_center``. ``"prevertices"`` without a disk mesh (a piece whose disk
+    construction failed) shows the prevertices and the arcs I_j without the arcs J_j.
     """
     if name not in DISK_LAYERS:
         raise ValueError(f"unknown disk layer {name!r}; expected one of {DISK_LAYERS}")
@@ -664,10 +672,11 @@ def build_disk_layer(
             line_part(lines, color=LAYER_COLORS["tessellation"], label="tile edges", disk=True)
         )
         return geo
-    if disk is None:
+    if disk is None and name != "prevertices":
         raise ValueError(f"disk layer {name!r} needs a disk mesh")
-    z = np.asarray(disk.vertices, dtype=np.complex128)
-    quads = np.asarray(disk.quads, dtype=np.int64)
+    if disk is not None:
+        z = np.asarray(disk.vertices, dtype=np.complex128)
+        quads = np.asarray(disk.quads, dtype=np.int64)
     if name == "region_w":
         geo.parts.extend(_kind_parts(z, quads, np.asarray(disk.kind), opacity=1.0))
         piece = getattr(disk, "piece", None)
@@ -697,12 +706,20 @@ def build_disk_layer(
             )
         )
     else:  # prevertices
-        arcs_j = [_arc_points(s, ln, 1.045) for s, ln in np.asarray(disk.pieces.J).reshape(-1, 2)]
-        geo.parts.append(
-            line_part(
-                arcs_j, color="#2ca02c", line_width=4.0, label="J arcs", disk=True, disk_scale=1.045
+        if disk is not None:
+            arcs_j = [
+                _arc_points(s, ln, 1.045) for s, ln in np.asarray(disk.pieces.J).reshape(-1, 2)
+            ]
+            geo.parts.append(
+                line_part(
+                    arcs_j,
+                    color="#2ca02c",
+                    line_width=4.0,
+                    label="J arcs",
+                    disk=True,
+                    disk_scale=1.045,
+                )
             )
-        )
         if intervals is not None and len(intervals):
             arcs_i = [_arc_points(s, ln, 1.02) for s, ln in np.asarray(intervals).reshape(-1, 2)]
             geo.parts.append(
@@ -739,7 +756,11 @@ def build_layer(
 ) -> LayerGeometry:
     """Geometry of layer ``name`` of a :class:`~quadmesh.result.MeshResult`.
 
-    Plane layers use the whole result; disk layers show thick piece number ``piece``.
+    Plane layers use the whole result; disk layers show thick piece number ``piece`` (its
+    position in ``result.pieces``). ``result`` may be a failed run's
+    :class:`~quadmesh.errors.PartialResult`: a piece without a disk mesh has empty
+    ``region_w`` and ``disk_mesh`` layers and only its prevertices and arcs I_j, and the plane
+    layers show the pieces that got that far.
     ``color_by`` chooses the colouring of ``final_mesh``: ``"corner"`` (each corner's angle,
     colour range = the quality report's min/max new angle) or ``"worst"`` (each quad's largest
     deviation of a new angle from 90°).
@@ -750,6 +771,8 @@ def build_layer(
         if not result.pieces:
             return LayerGeometry(name, "disk")
         p = result.pieces[piece]
+        if p.disk is None and name != "prevertices":
+            return LayerGeometry(name, "disk")
         return build_disk_layer(
             name,
             p.disk,

@@ -8,26 +8,28 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .arcs import best_rotation, piece_intervals
-from .errors import ConformalMapError, DiskConstructionError
+from .errors import ConformalMapError, DiskConstructionError, QuadmeshError
 from .geometry import quad_angles_deg
 from .progress import span
 from .pushforward import RotatedMap, push_forward
-from .result import MeshOptions
+from .result import MeshOptions, ThickPieceResult
 
 __all__ = [
     "ANGLE_MAX",
     "ANGLE_MIN",
     "ANGLE_TOL",
+    "KeptStages",
     "PieceWork",
     "angle_tol",
     "collect_angle_faults",
     "deepest_landmark",
     "disk_and_image",
+    "piece_result",
     "prepare_piece",
     "refuse_degenerate",
     "repair_note",
@@ -63,6 +65,7 @@ class PieceWork:
     lemma_A: float | None = None  # set when the piece fell back to FALLBACK_A
     what: str = THIS_PIECE
     name: Callable[[tuple[str, int]], str] | None = None
+    piece: object = None  # the entry of Decomposition.thick (for owners in the user's terms)
 
     def owner_name(self, j: int) -> str:
         """Arc j's owner (a polygon vertex or a narrow passage) in the user's terms."""
@@ -118,7 +121,17 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
         with span(0.6, 1.0, "choosing arcs"):
             psi, intervals, owners = best_rotation(theta, stretches, options, name)
     except DiskConstructionError as exc:
-        raise DiskConstructionError(f"{what}: {exc.args[0]}{_spacing_help(options)}") from exc
+        # the map was solved: it is kept (without arcs) for the failure's partial result
+        solved = PieceWork(
+            piece.index, np.asarray(piece.z), fmap, theta, np.zeros((0, 2)), [], stretches
+        )
+        raise _failed(
+            DiskConstructionError(f"{what}: {exc.args[0]}{_spacing_help(options)}"),
+            solved,
+            None,
+            options.n,
+            options.depth_step,
+        ) from exc
     if psi != 0.0:
         fmap = RotatedMap(fmap, psi)
         theta = np.asarray(fmap.theta)
@@ -133,6 +146,7 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
         stretches,
         what=what,
         name=name,
+        piece=piece,
     )
 
 
@@ -178,18 +192,19 @@ def disk_and_image(
         # paper-sized A = 16 with arcs of 1/16 of the neighbouring gap (same cores, same
         # crosscut vertex counts, so the channels still match)
         if pd.lemma_A is not None or options.lemma_A >= FALLBACK_A:
-            raise DiskConstructionError(_disk_failure(pd, exc) + _spacing_help(options)) from exc
+            why = _disk_failure(pd, exc) + _spacing_help(options)
+            raise _failed(DiskConstructionError(why), pd, None, n, step) from exc
         fallback = replace(options, lemma_A=FALLBACK_A, crosscut_ratio=FALLBACK_A)
         try:
             with span(0.0, 0.2):
                 intervals, owners = piece_intervals(pd.theta, pd.stretches, fallback, pd.name)
                 disk = build(intervals, FALLBACK_A)
         except DiskConstructionError as exc2:
-            raise DiskConstructionError(_disk_failure(pd, exc, exc2)) from exc2
+            why = _disk_failure(pd, exc, exc2)
+            raise _failed(DiskConstructionError(why), pd, None, n, step) from exc2
         if owners != pd.owners:
-            raise DiskConstructionError(
-                _disk_failure(pd, exc, note="the wider spacing grouped its vertices differently")
-            ) from exc
+            why = _disk_failure(pd, exc, note="the wider spacing grouped its vertices differently")
+            raise _failed(DiskConstructionError(why), pd, None, n, step) from exc
         pd.intervals, pd.lemma_A = intervals, FALLBACK_A
     timings["disk"] = timings.get("disk", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -197,22 +212,93 @@ def disk_and_image(
         with span(0.2, 0.95, "push-forward"):
             image = push_forward(pd.fmap, disk, pd.theta, pd.z)
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
-        raise ConformalMapError(
+        err = ConformalMapError(
             f"{pd.what}: evaluating its conformal map at the disk mesh failed ({exc}); this "
             "part is too crowded for the map: use fewer, longer edges along it, or widen its "
             "narrow passages"
-        ) from exc
+        )
+        raise _failed(err, pd, disk, n, step) from exc
     if not np.all(np.isfinite(image)):
-        raise ConformalMapError(
+        err = ConformalMapError(
             f"{pd.what}: its conformal map gave non-finite mesh vertices; this part is too "
             "crowded for the map: use fewer, longer edges along it, or widen its narrow passages"
         )
+        raise _failed(err, pd, disk, n, step)
     timings["push_forward"] = timings.get("push_forward", 0.0) + time.perf_counter() - t0
     pd.repair = None
     if options.repair:
         with span(0.95, 1.0, "angle repair"):
             image = _repair_image(pd, disk, image, timings)
     return disk, image
+
+
+def piece_result(
+    pd: PieceWork, disk=None, image: np.ndarray | None = None, n: int = 0, step: float = 0.0
+) -> ThickPieceResult:
+    """What thick piece ``pd`` computed, as a :class:`~quadmesh.result.ThickPieceResult` for a
+    failed run's partial result: its map and arcs I_j, and its disk mesh and pushed-forward
+    image where they were built (else None); ``n``, ``step``: the (n, depth step) in use. The
+    arcs' owners are named as in a finished run (polygon vertex, or channel and end)."""
+    owners: list[tuple] = []
+    piece = pd.piece
+    if piece is not None:
+        source = np.asarray(piece.source)
+        for kind, k in pd.owners:
+            if kind == "vertex":
+                owners.append(("vertex", int(source[k])))
+            else:
+                cc = piece.crosscuts[k]
+                owners.append(("channel", int(cc.channel), int(cc.end)))
+    return ThickPieceResult(
+        index=pd.index,
+        vertices=pd.z,
+        map=pd.fmap,
+        intervals=np.asarray(pd.intervals, dtype=float).reshape(-1, 2),
+        interval_owner=tuple(owners),
+        disk=disk,
+        image=image,  # type: ignore[arg-type]  # None: not pushed forward
+        n_used=int(disk.n) if disk is not None else n,
+        depth_step_used=step,
+    )
+
+
+def _failed(exc: QuadmeshError, pd: PieceWork, disk, n: int, step: float) -> QuadmeshError:
+    """``exc`` marked as the failure of piece ``pd``, carrying what that piece computed
+    (its map, arcs and, if built, disk mesh) for the run's partial result."""
+    exc.piece = pd.index
+    exc.piece_stages = (piece_result(pd, disk, None, n, step),)
+    return exc
+
+
+@dataclass
+class KeptStages:
+    """The thick pieces' work of a run in progress (their maps and arcs, and the disk meshes
+    and images of the current (n, depth step)), kept by reference at no cost so that a
+    failure can report what was computed (:meth:`attach`)."""
+
+    work: list[PieceWork] = field(default_factory=list)
+    disks: list = field(default_factory=list)
+    n: int = 0
+    step: float = 0.0
+
+    def start(self, n: int, step: float) -> list:
+        """A new round of disk meshes at (n, step); returns the list to fill."""
+        self.n, self.step, self.disks = n, step, []
+        return self.disks
+
+    def attach(self, exc: QuadmeshError) -> None:
+        """Set ``exc.piece_stages`` to one result per piece whose map was solved (the failing
+        piece's own stages, when ``exc`` carries them, take its place)."""
+        own = {p.index: p for p in exc.piece_stages}
+        out = []
+        for k, pd in enumerate(self.work):
+            if pd.index in own:
+                out.append(own.pop(pd.index))
+                continue
+            disk, image = self.disks[k] if k < len(self.disks) else (None, None)
+            out.append(piece_result(pd, disk, image, self.n, self.step))
+        out.extend(own.values())  # a piece that failed while it was being prepared
+        exc.piece_stages = tuple(sorted(out, key=lambda p: p.index))
 
 
 #: A (and crosscut ratio) of the per-piece fallback when Lemma 2.2's arcs interlock.
@@ -278,7 +364,8 @@ def refuse_degenerate(pd: PieceWork, ang: np.ndarray) -> None:
         f"[{float(ang.min()):.1f}°, {float(ang.max()):.1f}°]): double precision cannot resolve "
         "the map of this part (typically a long curved corridor whose walls are chains of "
         "short edges); a larger n cannot help. Widen this passage, or draw its walls as long "
-        "straight edges"
+        "straight edges",
+        piece=getattr(pd, "index", None),
     )
 
 
