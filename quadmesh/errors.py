@@ -22,9 +22,7 @@ class QuadmeshError(Exception):
     piece: int | None = None
     piece_stages: tuple = ()
 
-    def __init__(
-        self, message: str, *, stage: str | None = None, piece: int | None = None
-    ) -> None:
+    def __init__(self, message: str, *, stage: str | None = None, piece: int | None = None) -> None:
         if stage is not None:
             self.stage = stage
         if piece is not None:
