@@ -1142,28 +1142,75 @@ class MainWindow(QMainWindow):
         self.set_result(result)
 
     def _on_partial(self, partial: Any) -> None:
-        """Keep what the failed run computed (its decomposition); drawn by :meth:`_on_failed`."""
+        """Keep what the failed run computed (its decomposition and thick pieces' stages);
+        drawn by :meth:`_on_failed`. Dropped when the polygon was edited while meshing."""
+        if self._job_polygon is not None and tuple(self.editor.points) != self._job_polygon:
+            return
         self.partial = partial
 
     def _on_failed(self, message: str) -> None:
         self.progress_bar.setFormat("failed")
         self._show_error(message)
         self._show_partial()
+        self._show_partial_disk()
         self._mark_problem(message)
 
+    def _partial_pieces(self) -> tuple:
+        """The thick pieces of the failed run on screen (empty when there is none)."""
+        return tuple(getattr(self.partial, "pieces", ()) or ())
+
     def _show_partial(self) -> None:
-        """Draw the stages a failed run computed — its thick pieces and crosscuts — as an
-        overlay of the plane view (removed with the error when the polygon changes)."""
+        """Draw the stages a failed run computed — its thick pieces, crosscuts and the pieces'
+        pushed-forward disk meshes, the failing piece outlined in red — as an overlay of the
+        plane view (removed with the error when the polygon changes)."""
         if self.partial is None:
             return
         parts: list = []
-        for name in ("thick_pieces", "crosscuts"):
+        for name in ("thick_pieces", "conformal_images", "crosscuts"):
             try:
                 parts.extend(build_layer(self.partial, name).parts)
             except (AttributeError, ValueError, IndexError):  # a stage that did not run
                 continue
+        failed = getattr(self.partial, "failed_piece", None)
+        thick = getattr(self.partial.decomposition, "thick", ())
+        if failed is not None and 0 <= failed < len(thick):
+            z = np.asarray(thick[failed].z, dtype=np.complex128) + complex(self.partial.origin)
+            parts.append(
+                line_part([z], color="#e00000", line_width=4.0, closed=True, label="failed piece")
+            )
         geo = LayerGeometry("partial", "plane", parts) if parts else None
         self.plane.set_overlay("partial", geo)
+
+    def _show_partial_disk(self) -> None:
+        """Show a failed run's thick pieces in the disk view (prevertices, arcs I_j and, where
+        it was built, the disk mesh), starting with the piece that failed; the piece spin box
+        then steps through them."""
+        pieces = self._partial_pieces()
+        if not pieces:
+            return
+        failed = getattr(self.partial, "failed_piece", None)
+        at = [k for k, p in enumerate(pieces) if p.index == failed]
+        self.piece_spin.blockSignals(True)
+        self.piece_spin.setRange(0, len(pieces) - 1)
+        self.piece_spin.setValue(at[0] if at else 0)
+        self.disk_piece = self.piece_spin.value()
+        self.piece_spin.blockSignals(False)
+        self._draw_disk_result()
+        self._refresh_legend()
+        self.disk.render()
+
+    def _disk_source(self) -> Any:
+        """What the disk view shows: a failed run's partial stages while they are on screen,
+        else the result."""
+        return self.partial if self._partial_pieces() else self.result
+
+    def _mark_piece_spin(self) -> None:
+        """Say in the spin box which piece failed (failed runs only)."""
+        pieces = self._partial_pieces()
+        failed = getattr(self.partial, "failed_piece", None)
+        k = self.disk_piece
+        bad = bool(pieces) and 0 <= k < len(pieces) and pieces[k].index == failed
+        self.piece_spin.setSuffix(" (failed)" if bad else "")
 
     def _mark_problem(self, message: str) -> None:
         """Red markers on the plane view at every "(x, y)" point the failure message names
@@ -1209,7 +1256,17 @@ class MainWindow(QMainWindow):
             return
         self.last_error = None
         self.error_box.clear_message()
+        had_pieces = bool(self._partial_pieces())
         self.partial = None
+        if had_pieces:  # the disk view goes back to the result (if any)
+            self.piece_spin.blockSignals(True)
+            n = len(self.result.pieces) if self.result is not None else 0
+            self.piece_spin.setRange(0, max(n - 1, 0))
+            self.disk_piece = self.piece_spin.value()
+            self.piece_spin.blockSignals(False)
+            self._draw_disk_result()
+            self._refresh_legend()
+            self.disk.render()
         if "partial" in self.plane.overlays:
             self.plane.set_overlay("partial", None)
             self.plane.render()
@@ -1253,10 +1310,15 @@ class MainWindow(QMainWindow):
 
     def _refresh_legend(self) -> None:
         visible = {n for n in self.layer_panel.visible_layers()}
-        self.legend.set_entries(legend_entries(self.result, visible, self.disk_piece))
+        shown, piece = self._disk_source(), self.disk_piece
+        pieces = self._partial_pieces()
+        if pieces and not (0 <= piece < len(pieces) and pieces[piece].disk is not None):
+            piece = -1  # no disk mesh: no region kinds to explain
+        self.legend.set_entries(legend_entries(shown, visible, piece))
 
     def _draw_disk_result(self) -> None:
-        r = self.result
+        r = self._disk_source()
+        self._mark_piece_spin()
         for name in _RESULT_DISK:
             if r is None or not r.pieces:
                 self._put(self.disk, name, None)

@@ -1,0 +1,118 @@
+"""GUI tests: after a failed run the disk view shows the failing thick piece's disk — its
+prevertices on the unit circle, its arcs I_j and its disk mesh — the piece spin box steps
+through the pieces the run computed, and an edit or a new run clears them. Driven by clicks
+on the real Mesh button and checkboxes; run under ``xvfb-run``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PySide6.QtCore import Qt
+
+from tests.helpers import LSHAPE, require_pipeline
+from tests.test_app import press, tick
+
+pytestmark = pytest.mark.gui
+
+
+def _fail_strictly(win, qtbot, polygon: np.ndarray) -> None:
+    """Untick local repair and the adaptive loop, click Mesh and wait until the run ends; it
+    must fail (pushed-forward pentagon angles below 60° with n = 2)."""
+    require_pipeline()
+    win.set_polygon(polygon)
+    tick(qtbot, win.repair_check)
+    tick(qtbot, win.adaptive_check)
+    opts = win.mesh_options()
+    assert not opts.adaptive and not opts.repair
+    with qtbot.waitSignal(win.runner.idle, timeout=120000):
+        press(qtbot, win.mesh_button)
+    assert win.result is None and win.progress_bar.format() == "failed"
+    assert win.last_error.startswith("[disk] mapped disk mesh angles out of [60°, 120°]")
+
+
+def _disk_part(win, layer: str, label: str):
+    geo = win.disk.layers[layer].geometry
+    assert geo is not None, layer
+    return geo.part(label)
+
+
+def _points(part) -> np.ndarray:
+    p = np.asarray(part.mesh.points)[:, :2]
+    return p[:, 0] + 1j * p[:, 1]
+
+
+def test_failed_piece_shown_in_disk_view_and_cleared(main_window, qtbot):
+    """The L-shape fails in its only thick piece: the disk view shows its 6 prevertices on
+    T, its 6 arcs I_j and its disk mesh, the spin box says "(failed)", the plane view
+    outlines the piece in red; a new (adaptive) run replaces them by the result's piece,
+    and an edit clears the disk view."""
+    win = main_window
+    _fail_strictly(win, qtbot, LSHAPE)
+    partial = win.partial
+    assert partial.failed_piece == 0 and len(partial.pieces) == 1
+    assert win.piece_spin.maximum() == 0 and win.piece_spin.suffix() == " (failed)"
+    pre = _disk_part(win, "prevertices", "prevertices")
+    z = _points(pre)
+    assert z.size == 6
+    np.testing.assert_allclose(np.abs(z), 1.0, atol=1e-6)
+    np.testing.assert_allclose(
+        np.sort(np.angle(z)), np.sort(np.angle(partial.pieces[0].map.prevertices)), atol=1e-6
+    )
+    assert _disk_part(win, "prevertices", "I arcs").mesh.n_lines == 6
+    edges = _disk_part(win, "disk_mesh", "edges")
+    assert edges.mesh.n_cells > 100
+    assert np.all(np.abs(_points(edges)) <= 1 + 1e-6)  # the disk mesh lies in D (float32)
+    for name in ("prevertices", "disk_mesh", "region_w"):
+        st = win.disk.layers[name]
+        assert st.visible and st.actors and all(a.GetVisibility() for a in st.actors)
+    # the plane view outlines the failing piece in red, last over the partial stages
+    red = win.plane.overlays["partial"][-1]
+    assert np.allclose(red.prop.color.float_rgb, (224 / 255, 0, 0), atol=0.01)
+    outline = np.asarray(red.GetMapper().GetInput().GetPoints().GetData())[:, :2]
+    np.testing.assert_allclose(np.sort(outline[:, 0]), np.sort(LSHAPE[:, 0]), atol=1e-12)
+
+    # a new run (adaptive again) clears the failure; its result's piece takes the disk view
+    tick(qtbot, win.adaptive_check)
+    with qtbot.waitSignal(win.runner.idle, timeout=120000):
+        press(qtbot, win.mesh_button)
+    assert win.last_error is None and win.partial is None and win.result is not None
+    assert win.piece_spin.suffix() == ""
+    z = _points(_disk_part(win, "prevertices", "prevertices"))
+    np.testing.assert_allclose(
+        np.sort(np.angle(z)), np.sort(np.angle(win.result.pieces[0].map.prevertices)), atol=1e-6
+    )
+    # a failure again, then an edit: the disk view is empty, the spin box back to 0
+    tick(qtbot, win.adaptive_check)
+    with qtbot.waitSignal(win.runner.idle, timeout=120000):
+        press(qtbot, win.mesh_button)
+    assert win.partial is not None and win.disk.layers["prevertices"].geometry is not None
+    win.set_polygon(LSHAPE * 1.5)
+    assert win.partial is None and win.result is None
+    for name in ("prevertices", "disk_mesh", "region_w"):
+        assert win.disk.layers[name].geometry is None
+    assert win.piece_spin.maximum() == 0 and win.piece_spin.suffix() == ""
+    assert "partial" not in win.plane.overlays
+
+
+def test_spin_box_steps_through_the_partial_pieces(main_window, qtbot):
+    """The dumbbell fails in thick piece 1; the spin box starts there and the Down key shows
+    piece 0 (which passed): other prevertices, and no "(failed)"."""
+    from quadmesh.examples import load_example
+
+    win = main_window
+    _fail_strictly(win, qtbot, np.asarray(load_example("dumbbell")))
+    partial = win.partial
+    assert partial.failed_piece == 1 and [p.index for p in partial.pieces] == [0, 1]
+    assert win.piece_spin.maximum() == 1 and win.piece_spin.value() == 1
+    assert win.piece_spin.suffix() == " (failed)"
+    z1 = _points(_disk_part(win, "prevertices", "prevertices"))
+    win.piece_spin.setFocus()
+    qtbot.keyClick(win.piece_spin, Qt.Key.Key_Down)
+    assert win.piece_spin.value() == 0 and win.disk_piece == 0
+    assert win.piece_spin.suffix() == ""
+    z0 = _points(_disk_part(win, "prevertices", "prevertices"))
+    want = np.asarray(partial.pieces[0].map.prevertices)
+    assert z0.size == want.size == len(partial.decomposition.thick[0].z)
+    np.testing.assert_allclose(np.sort(np.angle(z0)), np.sort(np.angle(want)), atol=1e-6)
+    assert z0.size != z1.size or not np.allclose(np.sort(np.angle(z0)), np.sort(np.angle(z1)))
+    assert _disk_part(win, "disk_mesh", "edges").mesh.n_cells > 100
