@@ -630,13 +630,14 @@ class MainWindow(QMainWindow):
                 self.layer_panel.set_swatch(name, LAYER_COLORS[name])
 
     def _update_fill(self) -> None:
-        """Show the polygon's light fill only while no final mesh is on screen: drawn over the
-        mesh it would wash out the mesh's angle colours."""
+        """Show the polygon's light fill only while no final mesh (nor a failed run's partial
+        stages) is on screen: drawn over them it would wash out their colours."""
         st = self.plane.layers.get("polygon")
         fm = self.plane.layers.get("final_mesh")
         if st is None or st.geometry is None:
             return
         mesh_on = fm is not None and fm.visible and fm.geometry is not None
+        mesh_on = mesh_on or "partial" in self.plane.overlays
         for part, actor in zip(View2D._drawn_parts(st), st.actors, strict=True):
             if part.label == "fill":
                 actor.SetVisibility(st.visible and not mesh_on)
@@ -1176,10 +1177,11 @@ class MainWindow(QMainWindow):
         if failed is not None and 0 <= failed < len(thick):
             z = np.asarray(thick[failed].z, dtype=np.complex128) + complex(self.partial.origin)
             parts.append(
-                line_part([z], color="#e00000", line_width=4.0, closed=True, label="failed piece")
+                line_part([z], color="#e00000", line_width=7.0, closed=True, label="failed piece")
             )
         geo = LayerGeometry("partial", "plane", parts) if parts else None
         self.plane.set_overlay("partial", geo)
+        self._update_fill()
 
     def _show_partial_disk(self) -> None:
         """Show a failed run's thick pieces in the disk view (prevertices, arcs I_j and, where
@@ -1269,6 +1271,7 @@ class MainWindow(QMainWindow):
             self.disk.render()
         if "partial" in self.plane.overlays:
             self.plane.set_overlay("partial", None)
+            self._update_fill()
             self.plane.render()
         if "problem" in self.plane.overlays:
             self.problem_points = np.zeros(0, dtype=np.complex128)
