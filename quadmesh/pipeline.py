@@ -250,7 +250,7 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
         raise
 
 
-def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float], kept):
+def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float], kept: KeptStages):
     """The stages of :func:`_mesh_thick_and_thin`, keeping the pieces' work in ``kept``."""
     work: list[PieceWork] = kept.work
     for i, piece in enumerate(dec.thick):
