@@ -58,6 +58,19 @@ def _add_command(sub: argparse._SubParsersAction, name: str, help_: str) -> argp
     )
 
 
+def _size_arg(text: str) -> tuple[float, bool]:
+    """``--size``: ``(value, relative)``; a trailing ``d`` means a fraction of the diameter."""
+    t = text.strip().lower()
+    rel = t.endswith("d")
+    try:
+        v = float(t[:-1] if rel else t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a length: {text!r} (e.g. 0.5 or 0.05d)") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"the size must be positive, got {text!r}")
+    return v, rel
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``quadmesh`` command."""
     parser = argparse.ArgumentParser(
@@ -72,6 +85,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = _add_command(sub, "mesh", "mesh a polygon file")
     p.add_argument("polygon", type=Path, help="polygon file")
     p.add_argument("-o", "--output", type=Path, required=True, help="mesh file to write")
+    p.add_argument(
+        "--method",
+        choices=("bishop", "blocks"),
+        help="bishop: the paper's construction (default); blocks: straight cuts into convex "
+        "blocks refined by grids, far fewer quads (falls back to bishop where no layout is found)",
+    )
+    p.add_argument(
+        "--size",
+        type=_size_arg,
+        help="target edge length for --method blocks: a length, or a fraction of the "
+        "polygon's diameter written with a trailing 'd' (0.05d); default 0.05d",
+    )
     p.add_argument("--n", type=int, help="steps per half pentagon side (Lemma 4.1)")
     p.add_argument("--depth-step", type=float, help="spacing of the depth sequence (Lemma 5.1)")
     p.add_argument("--delta", type=float, help="extremal-distance threshold of narrow channels")
@@ -175,7 +200,12 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
             f"(use {', '.join(MESH_FORMATS)})"
         )
     poly = _read_polygon(args.polygon)
+    size = args.size
+    if size is not None and size[1]:
+        size = (size[0] * poly.diameter, False)
     given = {
+        "method": args.method,
+        "size": None if size is None else size[0],
         "n": args.n,
         "depth_step": args.depth_step,
         "channel_delta": args.delta,
@@ -214,6 +244,14 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         f"new angles in [{q.min_angle:.3f}°, {q.max_angle:.3f}°] (checked on the written "
         f"coordinates within {ANGLE_TOL_DEG:g}°); {elapsed:.2f} s"
     )
+    if result.blocks is not None:
+        lay = result.blocks
+        print(
+            f"block layout: {len(lay.cuts)} cuts, {len(lay.faces)} faces, {lay.n_cells} blocks"
+            + (f", {len(lay.tips)} corners below 60° kept whole" if len(lay.tips) else "")
+        )
+    if result.fallback:
+        print(f"note: {result.fallback}")
     if args.stats:
         print(q.summary())
         print("timings:")

@@ -369,9 +369,16 @@ def write_polygon(
     path.write_text(json.dumps(data, separators=(",", ":")) + "\n", encoding="utf-8")
 
 
-STAGE_KINDS: dict[int, str] = {0: "disk", 1: "sector", 2: "channel", 3: "corridor"}
+STAGE_KINDS: dict[int, str] = {
+    0: "disk",
+    1: "sector",
+    2: "channel",
+    3: "corridor",
+    4: "block",
+}
 """Codes of the ``stage`` cell array (:attr:`quadmesh.result.MeshResult.quad_source`): the
-disk mesh of a thick piece, a vertex sector, a channel connector, a corridor ladder."""
+disk mesh of a thick piece, a vertex sector, a channel connector, a corridor ladder, a block of
+``method="blocks"``."""
 
 _CELL_DATA_FORMATS = (".json", ".vtk", ".vtu", ".msh")
 
@@ -407,7 +414,7 @@ def result_cell_data(result: object) -> dict[str, np.ndarray]:
     * ``min_angle``, ``max_angle``: the smallest and largest of the four;
     * ``worst_deviation``: max |angle − 90°| (0 for a rectangle; 30 at the [60°, 120°] limits);
     * ``stage``: the stage kind (:data:`STAGE_KINDS`: 0 disk/thick piece, 1 vertex sector,
-      2 channel, 3 corridor), when the result has ``quad_source``;
+      2 channel, 3 corridor, 4 block), when the result has ``quad_source``;
     * ``piece``: the part index (:func:`quad_part_index`), when it can be told.
     """
     mesh = result.mesh  # type: ignore[attr-defined]

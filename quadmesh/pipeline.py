@@ -148,6 +148,39 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
     work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
+    blocks = fallback = None
+    if options.method == "blocks":
+        from .blocks import BlockLayoutError, mesh_blocks
+
+        report("blocks", 0.05, 0.85)
+        t0 = time.perf_counter()
+        try:
+            z_b, quads_b, blocks, _info = mesh_blocks(work_poly.z, options.size)
+        except BlockLayoutError as exc:
+            fallback = f"no block layout: {exc.args[0]}; meshed by the paper's construction"
+        timings["blocks"] = time.perf_counter() - t0
+        if blocks is not None:
+            report("verify", 0.9, 1.0)
+            t0 = time.perf_counter()
+            mesh, mesh_origin, verification = finalize_mesh(poly, z_b, quads_b, origin)
+            timings["verify"] = time.perf_counter() - t0
+            report("done", 1.0)
+            return MeshResult(
+                polygon=poly,
+                options=options,
+                decomposition=None,
+                pieces=(),
+                thin=(),
+                mesh=mesh,
+                quality=verification.quality,
+                verification=verification,
+                timings=timings,
+                quad_source=np.full(len(quads_b), 4, dtype=np.int8),
+                origin=origin,
+                blocks=blocks,
+                mesh_origin=mesh_origin,
+            )
+
     report("decompose", 0.05, 0.08)
     t0 = time.perf_counter()
     dec = decompose(work_poly, DecomposeOptions(delta=options.channel_delta))
@@ -218,6 +251,7 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
         timings=timings,
         quad_source=source,
         origin=origin,
+        fallback=fallback,
         mesh_origin=mesh_origin,
     )
 

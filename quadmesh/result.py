@@ -18,7 +18,10 @@ if TYPE_CHECKING:
     from .mesh import QuadMesh, QualityReport, VerificationReport
     from .polygon import Polygon
 
-__all__ = ["MeshOptions", "MeshResult", "ThickPieceResult", "ThinPartResult"]
+#: meshing methods of :class:`MeshOptions`
+METHODS = ("bishop", "blocks")
+
+__all__ = ["METHODS", "MeshOptions", "MeshResult", "ThickPieceResult", "ThinPartResult"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,15 @@ class MeshOptions:
             range of its corner angles and their supplements, so [60°, 120°] survives. Not
             available when the polygon has a corner below 60° (the quad keeping it would give
             new angles of about that angle).
+        method: ``"bishop"`` (the paper's construction, every stage kept: the default) or
+            ``"blocks"``: straight cuts from the obtuse and reflex corners split the polygon
+            into convex blocks with every corner in [60°, 120°], refined by bilinear grids
+            (:mod:`quadmesh.blocks`) — the same angle guarantee with far fewer quads. A polygon
+            for which no block layout is found is meshed by the paper's construction instead
+            (``MeshResult.fallback`` says why).
+        size: target edge length of ``method="blocks"`` (None: the polygon's diameter / 20).
+            Every chord of blocks gets ceil(its longest edge / size) segments; blocks holding
+            a corner below 60° stay whole.
     """
 
     n: int = 2
@@ -96,6 +108,8 @@ class MeshOptions:
     max_n: int = 6
     repair: bool = True
     refine: int = 1
+    method: str = "bishop"
+    size: float | None = None
 
     def __post_init__(self) -> None:
         def real(name: str) -> float:
@@ -139,6 +153,12 @@ class MeshOptions:
             raise ValueError(f"max_n must be at least n = {self.n}, got {self.max_n}")
         if integer("refine", 1) > 64:
             raise ValueError(f"refine must be an integer in [1, 64], got {self.refine}")
+        if self.method not in METHODS:
+            raise ValueError(
+                f"method must be one of {', '.join(repr(m) for m in METHODS)}, got {self.method!r}"
+            )
+        if self.size is not None and not real("size") > 0:
+            raise ValueError(f"size must be a positive length, got {self.size!r}")
 
 
 @dataclass(frozen=True)
@@ -205,6 +225,11 @@ class MeshResult:
     the polygon translated exactly by −origin, so ``decomposition``, ``pieces`` and ``thin``
     hold plane points relative to ``origin``; ``polygon`` is always in the input's
     coordinates. 0 for every other polygon."""
+    blocks: Any = None
+    """The :class:`~quadmesh.blocks.BlockLayout` when the mesh was made by
+    ``method="blocks"`` (its points relative to ``origin``), else None."""
+    fallback: str | None = None
+    """Why ``method="blocks"`` fell back to the paper's construction (None otherwise)."""
     mesh_origin: complex = 0j
     """The ``mesh``'s vertices are relative to this point: a vertex's position in the input's
     coordinates is vertex + mesh_origin. 0 (the mesh is in the input's coordinates) unless the

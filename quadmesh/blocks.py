@@ -1,0 +1,699 @@
+"""Block layouts: few quads with every new angle in [60°, 120°], without a conformal map.
+
+A *block layout* cuts the polygon by straight segments into convex faces whose corners all lie
+in [60°, 120°] (a polygon corner below 60° may stay as a *tip*), splits every face into quads
+about a centre point when the faces are not all quadrilaterals, and refines the resulting cells
+by bilinear grids (:func:`quadmesh.cells.refine_layout`): a convex cell with straight sides and
+corners in [60°, 120°] keeps every grid angle in [60°, 120°] for any spacing, and one count per
+chord keeps the grids conforming.  This gives the same guarantee as the paper's construction
+(Theorem 1.1's angle bound) with far fewer quads and no element below the polygon's own
+features; the paper's theorem is what promises that *some* O(n) mesh exists.
+
+The cuts:
+
+* every corner with angle θ in (120°, 240°] gets one cut, every corner with θ > 240° two, so
+  that all parts of θ lie in [60°, 120°];
+* a cut runs straight from its corner until it meets the boundary (never stopping on another
+  cut, so no T-junctions arise); where it meets the boundary, and where two cuts cross, the
+  angles must lie in [60°, 120°]; a cut may end at another obtuse corner and serve as that
+  corner's cut too (a *join*);
+* the cuts are chosen together: one binary variable per candidate ray (directions sampled in
+  each corner's window, plus joins), exactly one ray per cut slot, no two rays that cross at a
+  bad angle or too close to a point; solved by ``scipy.optimize.milp``.  A face that then
+  cannot be split about a centre with angles in range is excluded by a new constraint and the
+  search runs again.
+
+Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are complex128.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import Bounds, LinearConstraint, milp, minimize
+from scipy.sparse import coo_matrix
+
+from .cells import ANGLE_MAX, ANGLE_MIN, LayoutRefinement, cell_angles, refine_layout
+from .errors import QuadmeshError
+from .progress import checkpoint
+
+__all__ = [
+    "BlockLayout",
+    "BlockLayoutError",
+    "block_layout",
+    "default_block_size",
+    "mesh_blocks",
+]
+
+#: corners of the coarse layout keep this distance (degrees) from 60° and 120°
+LAYOUT_MARGIN = 0.5
+#: directions sampled in each cut's window (besides joins)
+RAY_SAMPLES = 13
+#: a cut may not end or cross closer than this fraction of the diameter to another point
+POINT_GAP = 2e-3
+#: rounds of the search (each excludes the faces that could not be split)
+MAX_ROUNDS = 40
+#: polygon corners within this of 60° or 120° (degrees; rounding of their coordinates) count
+#: as in range
+ANGLE_TOL = 1e-7
+#: default target edge length, as a fraction of the polygon's diameter
+DEFAULT_SIZE_RATIO = 1.0 / 20.0
+
+
+class BlockLayoutError(QuadmeshError):
+    """No block layout was found for the polygon."""
+
+    stage = "blocks"
+
+
+@dataclass(frozen=True)
+class BlockLayout:
+    """A coarse layout of cells for a polygon.
+
+    Attributes:
+        polygon: (n,) complex polygon vertices (counter-clockwise) the layout is for.
+        points: (P,) complex layout points; ``points[:n]`` are the polygon's vertices.
+        cuts: (K, 2) complex end points of the straight cuts.
+        faces: the faces cut out by the cuts, each an int array of point indices (CCW).
+        cells: (C, 4) int cells over ``points`` (CCW), every corner in [60°, 120°] but tips.
+        tips: polygon vertices with an angle below 60° (their cells are never split).
+        split: True when the faces were split about centre points into the cells.
+        rounds: search rounds used.
+    """
+
+    polygon: NDArray[np.complex128]
+    points: NDArray[np.complex128]
+    cuts: NDArray[np.complex128]
+    faces: tuple[NDArray[np.int64], ...]
+    cells: NDArray[np.int64]
+    tips: NDArray[np.int64]
+    split: bool
+    rounds: int = 1
+    angles: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4)))
+
+    @property
+    def n_cells(self) -> int:
+        """Number of coarse cells."""
+        return len(self.cells)
+
+
+def default_block_size(z: ArrayLike) -> float:
+    """Default target edge length for block meshes: the polygon's diameter / 20."""
+    w = np.asarray(z, dtype=np.complex128)
+    d = float(np.max(np.abs(w[:, None] - w[None, :]))) if len(w) < 3000 else _diam_hull(w)
+    return d * DEFAULT_SIZE_RATIO
+
+
+def _diam_hull(w: NDArray[np.complex128]) -> float:
+    from scipy.spatial import ConvexHull
+
+    h = w[ConvexHull(np.column_stack([w.real, w.imag])).vertices]
+    return float(np.max(np.abs(h[:, None] - h[None, :])))
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def _angles_deg(z: NDArray[np.complex128]) -> NDArray[np.float64]:
+    e_in = z - np.roll(z, 1)
+    e_out = np.roll(z, -1) - z
+    return 180.0 - np.degrees(np.angle(e_out / e_in))
+
+
+def _line_angle(d1: complex, d2: complex) -> float:
+    """Angle in [0°, 90°] between the lines of directions d1 and d2 (as undirected lines the
+    four angles are this and its supplement)."""
+    a = abs(math.degrees(math.atan2((d2 / d1).imag, (d2 / d1).real))) % 180.0
+    return min(a, 180.0 - a)
+
+
+@dataclass
+class _Ray:
+    start: int  # polygon vertex
+    d: complex  # unit direction
+    end: complex  # end point
+    edge: int  # polygon edge hit (-1: a join)
+    u: float  # parameter on that edge
+    join: int  # polygon vertex reached (-1: none)
+    slots: list[tuple[int, int]]
+    cost: float
+
+
+def _first_hit(z: NDArray[np.complex128], i: int, d: complex) -> tuple[float, int, float] | None:
+    """First boundary point on the ray z[i] + t d (t > 0), skipping the two edges at z[i]:
+    ``(t, edge, u)`` with the point ``z[e] + u (z[e+1] - z[e])``; None if it leaves (never)."""
+    n = len(z)
+    a = z
+    b = np.roll(z, -1)
+    e = b - a
+    p = z[i]
+    # solve p + t d = a + u e:  t d - u e = a - p
+    den = (d.conjugate() * e).imag  # cross(d, e)
+    w = a - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w.conjugate() * e).imag / den  # cross(w, e) / cross(d, e)
+        u = (w.conjugate() * d).imag / den  # cross(w, d) / cross(d, e)
+    ok = (np.abs(den) > 1e-15 * np.abs(e)) & (t > 0) & (u >= 0) & (u <= 1)
+    ok[i] = False
+    ok[(i - 1) % n] = False
+    if not np.any(ok):
+        return None
+    j = int(np.argmin(np.where(ok, t, np.inf)))
+    return float(t[j]), j, float(u[j])
+
+
+def _windows(theta: float) -> list[tuple[float, float]]:
+    """Direction windows (degrees from the outgoing edge) of the cut slots of a corner."""
+    m = LAYOUT_MARGIN
+    lo, hi = ANGLE_MIN + m, ANGLE_MAX - m
+    if theta <= ANGLE_MAX + ANGLE_TOL:
+        return []
+    if theta <= 2 * ANGLE_MAX:
+        return [(max(lo, theta - hi), min(hi, theta - lo))]
+    return [(max(lo, theta - 2 * hi), min(hi, theta - 2 * lo)), (theta - hi, theta - lo)]
+
+
+def _candidates(z: NDArray[np.complex128], theta: NDArray[np.float64], diam: float) -> list[_Ray]:
+    n = len(z)
+    gap = POINT_GAP * diam
+    m = LAYOUT_MARGIN
+    e_out = np.roll(z, -1) - z
+    wins = [_windows(float(t)) for t in theta]
+    rays: list[_Ray] = []
+
+    def slot_of(i: int, phi: float) -> int | None:
+        for k, (a, b) in enumerate(wins[i]):
+            if a - 1e-9 <= phi <= b + 1e-9:
+                return k
+        return None
+
+    def phi_at(i: int, d: complex) -> float:
+        ang = math.degrees(math.atan2((d / e_out[i]).imag, (d / e_out[i]).real)) % 360.0
+        return ang
+
+    for i in range(n):
+        if not wins[i]:
+            continue
+        u0 = e_out[i] / abs(e_out[i])
+        dirs: list[tuple[float, int]] = []
+        for k, (a, b) in enumerate(wins[i]):
+            if b < a:
+                continue
+            for phi in np.linspace(a, b, RAY_SAMPLES if b > a else 1):
+                dirs.append((float(phi), k))
+        # joins: other obtuse corners seen inside a window
+        for j in range(n):
+            if j == i or not wins[j]:
+                continue
+            d = z[j] - z[i]
+            phi = phi_at(i, d)
+            k = slot_of(i, phi)
+            if k is None:
+                continue
+            hit = _first_hit(z, i, d / abs(d))
+            if hit is None or hit[0] < abs(d) * (1 - 1e-9) - 1e-12 * diam:
+                continue  # something is in the way
+            kj = slot_of(j, phi_at(j, -d))
+            if kj is None:
+                continue
+            cost = 0.5 + 0.2 * abs(d) / diam
+            rays.append(_Ray(i, d / abs(d), z[j], -1, 0.0, j, [(i, k), (j, kj)], cost))
+        for phi, k in dirs:
+            d = u0 * complex(math.cos(math.radians(phi)), math.sin(math.radians(phi)))
+            hit = _first_hit(z, i, d)
+            if hit is None:
+                continue
+            t, j, u = hit
+            ej = e_out[j]
+            if u * abs(ej) < gap or (1 - u) * abs(ej) < gap:
+                continue  # too close to a corner: only joins may end at corners
+            alpha = _line_angle(d, ej)
+            if alpha < ANGLE_MIN + m:
+                continue
+            end = z[j] + u * ej
+            cost = 1.0 + 0.5 * (90.0 - alpha) / 30.0 + 0.2 * t / diam
+            # prefer the middle of the window (room on both sides)
+            a, b = wins[i][k]
+            if b > a:
+                cost += 0.2 * abs(phi - 0.5 * (a + b)) / (b - a)
+            rays.append(_Ray(i, d, end, j, u, -1, [(i, k)], cost))
+    return rays
+
+
+def _seg_cross(p1: complex, p2: complex, q1: complex, q2: complex) -> tuple[float, float] | None:
+    """Parameters (s, t) of the crossing of segments p1p2 and q1q2 (None if they miss or are
+    parallel)."""
+    d1 = p2 - p1
+    d2 = q2 - q1
+    den = (d1.conjugate() * d2).imag
+    if abs(den) <= 1e-14 * abs(d1) * abs(d2):
+        return None
+    w = q1 - p1
+    s = (w.conjugate() * d2).imag / den
+    t = (w.conjugate() * d1).imag / den
+    if -1e-12 <= s <= 1 + 1e-12 and -1e-12 <= t <= 1 + 1e-12:
+        return s, t
+    return None
+
+
+def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list[tuple[int, int]]:
+    """Pairs of rays that may not both be chosen."""
+    gap = POINT_GAP * diam
+    m = LAYOUT_MARGIN
+    e_out = np.roll(z, -1) - z
+    bad: list[tuple[int, int]] = []
+    nr = len(rays)
+    P = np.array([z[r.start] for r in rays])
+    Q = np.array([r.end for r in rays])
+    for a in range(nr):
+        ra = rays[a]
+        for b in range(a + 1, nr):
+            rb = rays[b]
+            # the same slot twice is excluded by the equality rows; same join twice
+            ends_a = {ra.start, ra.join} - {-1}
+            ends_b = {rb.start, rb.join} - {-1}
+            shared = ends_a & ends_b
+            if shared:
+                if len(shared) == 2:
+                    bad.append((a, b))  # the same segment (a join seen from both ends)
+                    continue
+                v = shared.pop()
+                da = (ra.end - z[v]) if ra.start == v else (z[ra.start] - z[v])
+                db = (rb.end - z[v]) if rb.start == v else (z[rb.start] - z[v])
+                pa = math.degrees(math.atan2((da / e_out[v]).imag, (da / e_out[v]).real)) % 360
+                pb = math.degrees(math.atan2((db / e_out[v]).imag, (db / e_out[v]).real)) % 360
+                lo, hi = sorted((pa, pb))
+                if not ANGLE_MIN + m <= hi - lo <= ANGLE_MAX - m:
+                    bad.append((a, b))
+                continue
+            # end points too close to each other
+            if abs(Q[a] - Q[b]) < gap:
+                bad.append((a, b))
+                continue
+            x = _seg_cross(P[a], Q[a], P[b], Q[b])
+            if x is None:
+                # nearly touching without crossing: a point of one close to the other
+                if (
+                    _point_seg_dist(Q[a], P[b], Q[b]) < gap
+                    or _point_seg_dist(Q[b], P[a], Q[a]) < gap
+                ):
+                    bad.append((a, b))
+                continue
+            s, t = x
+            la, lb = abs(Q[a] - P[a]), abs(Q[b] - P[b])
+            if min(s * la, (1 - s) * la, t * lb, (1 - t) * lb) < gap:
+                bad.append((a, b))
+                continue
+            if _line_angle(ra.d, rb.d) < ANGLE_MIN + m:
+                bad.append((a, b))
+    return bad
+
+
+def _point_seg_dist(p: complex, a: complex, b: complex) -> float:
+    d = b - a
+    t = ((p - a) * d.conjugate()).real / max(abs(d) ** 2, 1e-300)
+    t = min(max(t, 0.0), 1.0)
+    return abs(p - (a + t * d))
+
+
+def _solve(
+    rays: list[_Ray],
+    slots: list[tuple[int, int]],
+    bad: list[tuple[int, int]],
+    nogoods: list[list[int]],
+) -> list[int] | None:
+    nr = len(rays)
+    sid = {s: k for k, s in enumerate(slots)}
+    rows, cols = [], []
+    for c, r in enumerate(rays):
+        for s in r.slots:
+            rows.append(sid[s])
+            cols.append(c)
+    A_eq = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(slots), nr))
+    cons = [LinearConstraint(A_eq, 1, 1)]
+    if bad:
+        bb = np.array(bad)
+        k = len(bb)
+        A_b = coo_matrix((np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, nr))
+        cons.append(LinearConstraint(A_b, -np.inf, 1))
+    for ng in nogoods:
+        row = np.zeros(nr)
+        row[ng] = 1
+        cons.append(LinearConstraint(row[None, :], -np.inf, len(ng) - 1))
+    cost = np.array([r.cost for r in rays])
+    res = milp(
+        cost,
+        constraints=cons,
+        integrality=np.ones(nr),
+        bounds=Bounds(0, 1),
+        options={"time_limit": 20.0},
+    )
+    if res.status != 0 or res.x is None:
+        return None
+    return [int(c) for c in np.nonzero(res.x > 0.5)[0]]
+
+
+# --------------------------------------------------------------------------- arrangement
+
+
+def _arrangement(
+    z: NDArray[np.complex128], rays: list[_Ray]
+) -> tuple[NDArray[np.complex128], list[NDArray[np.int64]], list[set[int]]]:
+    """Points and faces (CCW point-index cycles) of the polygon cut by the chosen rays, and
+    for every face the rays on its boundary."""
+    n = len(z)
+    pts: list[complex] = list(z)
+    # points on every polygon edge (parameter, index) and on every ray
+    on_edge: dict[int, list[tuple[float, int]]] = {
+        j: [(0.0, j), (1.0, (j + 1) % n)] for j in range(n)
+    }
+    on_ray: list[list[tuple[float, int]]] = []
+    for r in rays:
+        if r.join >= 0:
+            end = r.join
+        else:
+            end = len(pts)
+            pts.append(r.end)
+            on_edge[r.edge].append((r.u, end))
+        on_ray.append([(0.0, r.start), (1.0, end)])
+    for a in range(len(rays)):
+        for b in range(a + 1, len(rays)):
+            ra, rb = rays[a], rays[b]
+            if {ra.start, ra.join} & {rb.start, rb.join} - {-1}:
+                continue
+            x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
+            if x is None:
+                continue
+            s, t = x
+            if not (0 < s < 1 and 0 < t < 1):
+                continue
+            k = len(pts)
+            pts.append(z[ra.start] + s * (ra.end - z[ra.start]))
+            on_ray[a].append((s, k))
+            on_ray[b].append((t, k))
+    edges: set[tuple[int, int]] = set()
+    ray_of_edge: dict[tuple[int, int], int] = {}
+    for j in range(n):
+        seq = [k for _, k in sorted(on_edge[j])]
+        for u, v in pairwise(seq):
+            edges.add((u, v))
+            edges.add((v, u))  # the outer side: its cycle has negative area and is dropped
+    for a, lst in enumerate(on_ray):
+        seq = [k for _, k in sorted(lst)]
+        for u, v in pairwise(seq):
+            edges.add((u, v))
+            edges.add((v, u))
+            ray_of_edge[(u, v)] = ray_of_edge[(v, u)] = a
+    P = np.array(pts, dtype=np.complex128)
+    out: dict[int, list[int]] = {}
+    for u, v in edges:
+        out.setdefault(u, []).append(v)
+    order: dict[int, list[int]] = {}
+    for u, nb in out.items():
+        ang = [math.atan2((P[v] - P[u]).imag, (P[v] - P[u]).real) for v in nb]
+        order[u] = [nb[k] for k in np.argsort(ang)]
+    seen: set[tuple[int, int]] = set()
+    faces: list[NDArray[np.int64]] = []
+    face_rays: list[set[int]] = []
+    for e0 in edges:
+        if e0 in seen:
+            continue
+        cyc = []
+        fr: set[int] = set()
+        u, v = e0
+        while (u, v) not in seen:
+            seen.add((u, v))
+            cyc.append(u)
+            if (u, v) in ray_of_edge:
+                fr.add(ray_of_edge[(u, v)])
+            nb = order[v]
+            k = nb.index(u)
+            w = nb[(k - 1) % len(nb)]  # first clockwise from v->u
+            u, v = v, w
+        c = np.array(cyc, dtype=np.int64)
+        w = P[c]
+        area = 0.5 * float(
+            np.sum(
+                (w - w[0]).real * np.roll(w - w[0], -1).imag
+                - np.roll(w - w[0], -1).real * (w - w[0]).imag
+            )
+        )
+        if area > 0:
+            faces.append(c)
+            face_rays.append(fr)
+    return P, faces, face_rays
+
+
+def _face_angles(P: NDArray[np.complex128], f: NDArray[np.int64]) -> NDArray[np.float64]:
+    return _angles_deg(P[f])
+
+
+# --------------------------------------------------------------------------- centre splits
+
+
+def _split_cells(
+    P: NDArray[np.complex128],
+    faces: list[NDArray[np.int64]],
+    tip_mask: NDArray[np.bool_],
+    own_mask: NDArray[np.bool_],
+    margin: float = 0.5 * LAYOUT_MARGIN,
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], list[int]]:
+    """Split every face into quads about a centre point, one point on every face side (shared
+    by the two faces on it): ``(points, cells, bad_faces)``.  Quadrilateral faces start from
+    their 2×2 bilinear split (admissible by the bilinear argument); the centres and side points
+    of the other faces are placed to keep every new corner in range (max-min by SLSQP).
+    ``tip_mask``: points whose corner only has to be above 0°; ``own_mask``: uncut polygon
+    corners (their angle is the polygon's own, in range up to rounding)."""
+    nP = len(P)
+    side_id: dict[tuple[int, int], int] = {}
+    sides: list[tuple[int, int]] = []
+    for f in faces:
+        for u, v in zip(f, np.roll(f, -1)):
+            key = (min(u, v), max(u, v))
+            if key not in side_id:
+                side_id[key] = len(sides)
+                sides.append(key)
+    S = np.array(sides, dtype=np.int64)
+    nS = len(S)
+    t = np.full(nS, 0.5)
+    C = np.array([P[f].mean() for f in faces])
+    # cells: (face, corner k) -> (corner, side point after, centre, side point before)
+    cell_rows = []
+    cell_face = []
+    for fi, f in enumerate(faces):
+        k = len(f)
+        for a in range(k):
+            u, v, w = f[(a - 1) % k], f[a], f[(a + 1) % k]
+            cell_rows.append(
+                (v, side_id[(min(v, w), max(v, w))], fi, side_id[(min(u, v), max(u, v))])
+            )
+            cell_face.append(fi)
+    R = np.array(cell_rows, dtype=np.int64)
+    cell_face_a = np.array(cell_face)
+    corner_is_tip = tip_mask[R[:, 0]]
+    need = np.full((len(R), 4), margin)
+    need[:, 0] = np.where(own_mask[R[:, 0]] | corner_is_tip, -ANGLE_TOL, need[:, 0])
+
+    def positions(tt: NDArray[np.float64], cc: NDArray[np.complex128]) -> NDArray[np.complex128]:
+        sp = P[S[:, 0]] + tt * (P[S[:, 1]] - P[S[:, 0]])
+        return np.concatenate([P, sp, cc])
+
+    def cells_idx() -> NDArray[np.int64]:
+        return np.stack([R[:, 0], nP + R[:, 1], nP + nS + R[:, 2], nP + R[:, 3]], axis=1)
+
+    Q = cells_idx()
+
+    def slack(X: NDArray[np.complex128]) -> NDArray[np.float64]:
+        ang = cell_angles(X[Q])
+        lo = ang - ANGLE_MIN
+        lo[:, 0] = np.where(corner_is_tip, ang[:, 0], lo[:, 0])  # a tip only needs > 0
+        return np.minimum(lo, ANGLE_MAX - ang) - need  # (C, 4), >= 0 where in range
+
+    X = positions(t, C)
+    sl = slack(X)
+    bad_cells = np.any(sl < 0, axis=1)
+    if np.any(bad_cells):
+        # optimise the centres of the faces with bad cells and the side points around them
+        bad_faces = np.unique(cell_face_a[bad_cells])
+        free_f = set(bad_faces.tolist())
+        free_s = sorted(
+            {int(R[c, 1]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
+            | {int(R[c, 3]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
+        )
+        # faces touching a free side move their centre too
+        touch = np.isin(R[:, 1], free_s) | np.isin(R[:, 3], free_s)
+        free_f |= set(cell_face_a[touch].tolist())
+        ff = np.array(sorted(free_f))
+        fs = np.array(free_s, dtype=np.int64)
+        rows = np.nonzero(np.isin(cell_face_a, ff))[0]
+        scale = np.array([max(abs(P[faces[f]] - C[f]).max(), 1e-300) for f in ff])
+
+        def unpack(x: NDArray[np.float64]) -> NDArray[np.complex128]:
+            tt = t.copy()
+            tt[fs] = x[: len(fs)]
+            cc = C.copy()
+            xy = x[len(fs) :].reshape(-1, 2)
+            cc[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
+            return positions(tt, cc)
+
+        def cons(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            s = slack(unpack(x[:-1]))[rows].ravel()
+            return s - x[-1]
+
+        x0 = np.concatenate([t[fs], np.zeros(2 * len(ff)), [float(sl[rows].min())]])
+        lb = np.concatenate([np.full(len(fs), 0.05), np.full(2 * len(ff), -0.9), [-90.0]])
+        ub = np.concatenate([np.full(len(fs), 0.95), np.full(2 * len(ff), 0.9), [90.0]])
+        res = minimize(
+            lambda x: -x[-1],
+            x0,
+            method="SLSQP",
+            constraints=[{"type": "ineq", "fun": cons}],
+            bounds=list(zip(lb, ub)),
+            options={"maxiter": 200, "ftol": 1e-9},
+        )
+        x = res.x if res.x is not None else x0
+        X = unpack(x[:-1])
+        tt = t.copy()
+        tt[fs] = x[: len(fs)]
+        t = tt
+        xy = x[len(fs) : -1].reshape(-1, 2)
+        C = C.copy()
+        C[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
+        sl = slack(X)
+    still = np.any(sl < 0, axis=1)
+    return X, Q, sorted(set(cell_face_a[still].tolist()))
+
+
+# --------------------------------------------------------------------------- the layout
+
+
+def block_layout(polygon: ArrayLike) -> BlockLayout:
+    """A coarse layout of admissible cells for a counter-clockwise simple polygon.
+
+    Args:
+        polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
+
+    Returns:
+        A :class:`BlockLayout` whose cells are convex, counter-clockwise, conforming, cover the
+        polygon exactly and have every corner in [60.25°, 119.75°] except the polygon's own
+        corners below 60° (tips).
+
+    Raises:
+        BlockLayoutError: no set of cuts was found (the message says at which corners).
+    """
+    z = np.asarray(polygon, dtype=np.complex128)
+    n = len(z)
+    theta = _angles_deg(z)
+    diam = float(np.max(np.abs(z[:, None] - z[None, :]))) if n < 3000 else _diam_hull(z)
+    tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
+    slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]))))]
+    rays = _candidates(z, theta, diam) if slots else []
+    checkpoint()
+    covered = {s for r in rays for s in r.slots}
+    missing = [s for s in slots if s not in covered]
+    if missing:
+        vs = sorted({i for i, _ in missing})
+        raise BlockLayoutError(
+            "no straight cut from the corner"
+            + ("s" if len(vs) > 1 else "")
+            + " at "
+            + ", ".join(f"({z[i].real:.6g}, {z[i].imag:.6g}) ({theta[i]:.1f}°)" for i in vs[:6])
+            + " meets the boundary at an angle in [60°, 120°]"
+        )
+    bad = _conflicts(z, rays, diam) if rays else []
+    checkpoint()
+    nogoods: list[list[int]] = []
+    tip_mask = np.zeros(n, dtype=bool)
+    tip_mask[tips] = True
+    has_slot = np.zeros(n, dtype=bool)
+    has_slot[[i for i, _ in slots]] = True
+    last_problem = ""
+    for rnd in range(1, MAX_ROUNDS + 1):
+        chosen = _solve(rays, slots, bad, nogoods) if slots else []
+        checkpoint()
+        if chosen is None:
+            break
+        sel = [rays[c] for c in chosen]
+        P, faces, face_rays = _arrangement(z, sel)
+        angs = [_face_angles(P, f) for f in faces]
+        # corners must be in range (tips excepted): a triple point can break that
+        pm = np.zeros(len(P), dtype=bool)
+        pm[tips] = True
+        own = np.zeros(len(P), dtype=bool)
+        own[:n] = ~has_slot & ~tip_mask
+        wrong = []
+        for fi, (f, a) in enumerate(zip(faces, angs)):
+            m = np.where(own[f], -ANGLE_TOL, 0.5 * LAYOUT_MARGIN)
+            ok = np.where(pm[f], a > 0, (a >= ANGLE_MIN + m) & (a <= ANGLE_MAX - m))
+            if not np.all(ok) or len(f) > 6:
+                wrong.append(fi)
+        if not wrong:
+            if all(len(f) == 4 for f in faces):
+                cells = np.array(faces, dtype=np.int64)
+                X, split, wrong = P, False, []
+                ang = cell_angles(X[cells])
+            else:
+                X, cells, wrong = _split_cells(P, faces, pm, own)
+                if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
+                    X, cells, wrong = _split_cells(P, faces, pm, own, margin=-ANGLE_TOL)
+                split = True
+                ang = cell_angles(X[cells])
+            if not wrong:
+                return BlockLayout(
+                    polygon=z,
+                    points=X,
+                    cuts=np.array([[z[r.start], r.end] for r in sel], dtype=np.complex128).reshape(
+                        -1, 2
+                    ),
+                    faces=tuple(faces),
+                    cells=cells,
+                    tips=tips,
+                    split=split,
+                    rounds=rnd,
+                    angles=ang,
+                )
+        last_problem = f"{len(wrong)} face(s) could not be split into cells"
+        for fi in wrong:
+            ng = sorted(chosen[k] for k in face_rays[fi])
+            if not ng:
+                raise BlockLayoutError(
+                    "a part of the polygon bounded only by its own edges cannot be split into "
+                    "quads with corners in [60°, 120°]"
+                )
+            nogoods.append(ng)
+    raise BlockLayoutError(
+        "no set of straight cuts splits the polygon into blocks with every corner in "
+        f"[60°, 120°] ({len(rays)} candidate cuts at {len({r.start for r in rays})} obtuse or "
+        f"reflex corners{'; ' + last_problem if last_problem else ''})"
+    )
+
+
+def mesh_blocks(
+    polygon: ArrayLike, size: float | None = None
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement]:
+    """Quad mesh of a polygon from its block layout, refined to edge length about ``size``.
+
+    Args:
+        polygon: (n,) complex vertices, counter-clockwise.
+        size: target edge length (default :func:`default_block_size`); every chord of the layout
+            gets ``ceil(longest edge / size)`` segments, chords through a tip cell stay whole.
+
+    Returns:
+        ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices.
+    """
+    z = np.asarray(polygon, dtype=np.complex128)
+    lay = block_layout(z)
+    h = default_block_size(z) if size is None else float(size)
+    if not (h > 0 and math.isfinite(h)):
+        raise ValueError(f"size must be a positive finite length, got {size!r}")
+    # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
+    # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
+    # the caller with the strict fixed tolerance
+    pts, quads, info = refine_layout(
+        lay.points, lay.cells, size=h, tips=lay.tips.tolist(), check=False
+    )
+    return pts, quads, lay, info

@@ -1,0 +1,135 @@
+"""method="blocks": straight cuts into convex blocks with corners in [60°, 120°], refined by
+bilinear grids.  Written meshes are checked by the independent reader of test_strict."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from quadmesh import MeshOptions, mesh_polygon
+from quadmesh.blocks import BlockLayoutError, block_layout, mesh_blocks
+from quadmesh.cells import cell_angles
+from quadmesh.cli import main as cli_main
+from quadmesh.examples import load_example
+from tests.test_strict import independent_check
+
+L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+
+#: bundled examples whose block layout closes (no fallback), with their coarse block counts
+CLOSING = {
+    "square": 1,
+    "rectangle_2x1": 1,
+    "l_shape": 3,
+    "t_shape": 4,
+    "u_shape": 5,
+    "cross": 5,
+    "comb": 17,
+    "dumbbell": 7,
+    "square_spiral": 17,
+    "pentagon": 5,
+    "hexagon": 6,
+    "triangle": 3,
+    "equilateral_triangle": 3,
+}
+
+
+def _z(a: np.ndarray) -> np.ndarray:
+    return a[:, 0] + 1j * a[:, 1]
+
+
+def test_l_shape_three_blocks_all_right_angles() -> None:
+    lay = block_layout(_z(L_SHAPE))
+    assert lay.n_cells == 3 and not lay.split and len(lay.cuts) == 2
+    np.testing.assert_allclose(lay.angles, 90.0, atol=1e-9)
+    pts, quads, _lay, _info = mesh_blocks(_z(L_SHAPE))
+    # default size d/20 = 0.1414: 8 segments per unit side -> 3 blocks of 8x8
+    assert len(quads) == 3 * 8 * 8
+    np.testing.assert_array_equal(pts[:6], _z(L_SHAPE))
+
+
+@pytest.mark.parametrize("name", sorted(CLOSING))
+def test_examples_close_and_verify(name: str, tmp_path: Path) -> None:
+    verts = load_example(name)
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks is not None
+    assert res.blocks.n_cells == CLOSING[name]
+    assert res.verification.ok
+    # every coarse cell corner in [60°, 120°] (tips: the polygon's own corner below 60°)
+    ang = cell_angles(res.blocks.points[res.blocks.cells])
+    is_tip = np.isin(res.blocks.cells, res.blocks.tips)
+    assert np.all(ang[~is_tip] >= 60.0 - 1e-7) and np.all(ang <= 120.0 + 1e-7)
+    # few quads: at most 100 per polygon vertex at the default size (the paper's construction
+    # makes ~1,000)
+    assert res.mesh.n_quads <= 100 * len(verts)
+    out = tmp_path / f"{name}.json"
+    assert cli_main(["mesh", str(example_file(name)), "-o", str(out), "--method", "blocks"]) == 0
+    got = independent_check(out, verts, angle_tol=1e-9)
+    assert got["n_quads"] == res.mesh.n_quads
+
+
+def example_file(name: str) -> Path:
+    from quadmesh.examples import example_path
+
+    return example_path(name)
+
+
+def test_size_controls_the_count_and_edge_lengths(tmp_path: Path) -> None:
+    z = _z(L_SHAPE)
+    counts = []
+    for h in (0.5, 0.25, 0.1):
+        pts, quads, _lay, _ = mesh_blocks(z, size=h)
+        e = np.abs(pts[quads] - pts[np.roll(quads, -1, axis=1)])
+        assert e.max() <= h * (1 + 1e-12)
+        assert e.min() >= h / 2  # one count per chord: no sliver rows
+        counts.append(len(quads))
+    assert counts == [3 * 2 * 2, 3 * 4 * 4, 3 * 10 * 10]
+    # the CLI's relative size: 0.02d on the L-shape (d = 2.828) -> 18 segments per unit
+    out = tmp_path / "l.json"
+    src = tmp_path / "l_in.json"
+    src.write_text(json.dumps({"vertices": L_SHAPE.tolist()}))
+    assert (
+        cli_main(["mesh", str(src), "-o", str(out), "--method", "blocks", "--size", "0.02d"]) == 0
+    )
+    got = independent_check(out, L_SHAPE, angle_tol=1e-9)
+    assert got["n_quads"] == 3 * 18 * 18
+
+
+def test_tip_block_stays_whole() -> None:
+    verts = load_example("triangle")  # one corner of 48.8°
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    lay = res.blocks
+    assert len(lay.tips) == 1
+    # the tip's corner in the final mesh is the polygon's own angle, in one quad
+    tip = lay.polygon[lay.tips[0]]
+    v = res.mesh.vertices[:, 0] + 1j * res.mesh.vertices[:, 1]
+    k = int(np.argmin(np.abs(v - tip)))
+    assert np.sum(res.mesh.quads == k) == 1
+    assert res.verification.ok
+
+
+def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
+    verts = load_example("octagon")  # eight 135° corners: every set of crossing cuts fails
+    with pytest.raises(BlockLayoutError, match="straight cuts"):
+        block_layout(_z(verts))
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
+    assert res.pieces and res.verification.ok
+
+
+def test_options_validate_method_and_size() -> None:
+    with pytest.raises(ValueError, match="method"):
+        MeshOptions(method="paving")
+    with pytest.raises(ValueError, match="size"):
+        MeshOptions(method="blocks", size=0.0)
+    with pytest.raises(ValueError, match="size"):
+        MeshOptions(method="blocks", size=float("nan"))
+
+
+def test_far_polygon_blocks_verified_in_place() -> None:
+    far = L_SHAPE * 10.0 + [5e6, 3e6]
+    res = mesh_polygon(far, MeshOptions(method="blocks"))
+    assert res.blocks is not None and res.verification.ok
+    assert res.mesh.n_quads == 3 * 8 * 8
