@@ -83,6 +83,7 @@ class BlockLayout:
         tips: polygon vertices with an angle below 60° (their cells are never split).
         split: True when the faces were split about centre points into the cells.
         rounds: search rounds used.
+        tees: cuts that end on another cut (T-junctions made conforming by splitting cells).
     """
 
     polygon: NDArray[np.complex128]
@@ -93,6 +94,7 @@ class BlockLayout:
     tips: NDArray[np.int64]
     split: bool
     rounds: int = 1
+    tees: int = 0
     angles: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4)))
 
     @property
@@ -141,6 +143,9 @@ class _Ray:
     join: int  # polygon vertex reached (-1: none)
     slots: list[tuple[int, int]]
     cost: float
+    base: int = -1  # the full ray this one is cut from (its own index for a full ray)
+    stop: int = -1  # base id of the ray this one ends on (a T-junction), else -1
+    reach: float = 0.0  # distance from the start to the end
 
 
 def _first_hit(z: NDArray[np.complex128], i: int, d: complex) -> tuple[float, int, float] | None:
@@ -241,7 +246,57 @@ def _candidates(z: NDArray[np.complex128], theta: NDArray[np.float64], diam: flo
             if b > a:
                 cost += 0.2 * abs(phi - 0.5 * (a + b)) / (b - a)
             rays.append(_Ray(i, d, end, j, u, -1, [(i, k)], cost))
+    for k, r in enumerate(rays):
+        r.base = k
+        r.reach = abs(r.end - z[r.start])
     return rays
+
+
+def _t_variants(
+    z: NDArray[np.complex128], rays: list[_Ray], diam: float, per_ray: int = 3
+) -> list[_Ray]:
+    """Shortened copies of the full rays that end on another full ray (a T-junction), at the
+    first ``per_ray`` crossings where the two meet at an angle in [60°, 120°]; the far side
+    of the T is made conforming later by splitting cells along grid lines."""
+    gap = POINT_GAP * diam
+    m = LAYOUT_MARGIN
+    out: list[_Ray] = []
+    full = [r for r in rays if r.join < 0]
+    for ra in full:
+        hits = []
+        for rb in full:
+            if rb.start == ra.start:
+                continue
+            x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
+            if x is None:
+                continue
+            sa, tb = x
+            la, lb = ra.reach, rb.reach
+            if min(sa * la, (1 - sa) * la, tb * lb, (1 - tb) * lb) < gap:
+                continue
+            if _line_angle(ra.d, rb.d) < ANGLE_MIN + m:
+                continue
+            hits.append((sa, rb.base))
+        hits.sort()
+        for sa, b in hits[:per_ray]:
+            end = z[ra.start] + sa * (ra.end - z[ra.start])
+            cost = ra.cost + 0.3  # a T costs a row of split cells
+            out.append(
+                _Ray(
+                    ra.start,
+                    ra.d,
+                    end,
+                    -1,
+                    0.0,
+                    -1,
+                    list(ra.slots),
+                    cost,
+                    ra.base,
+                    b,
+                    sa * ra.reach,
+                )
+            )
+    return out
 
 
 def _seg_cross(p1: complex, p2: complex, q1: complex, q2: complex) -> tuple[float, float] | None:
@@ -273,6 +328,8 @@ def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list
         ra = rays[a]
         for b in range(a + 1, nr):
             rb = rays[b]
+            if (ra.stop >= 0 and ra.stop == rb.base) or (rb.stop >= 0 and rb.stop == ra.base):
+                continue  # one ends on the other: the support rows of _solve decide
             # the same slot twice is excluded by the equality rows; same join twice
             ends_a = {ra.start, ra.join} - {-1}
             ends_b = {rb.start, rb.join} - {-1}
@@ -340,6 +397,20 @@ def _solve(
         k = len(bb)
         A_b = coo_matrix((np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, nr))
         cons.append(LinearConstraint(A_b, -np.inf, 1))
+    gap_t = 1e-9
+    for c, r in enumerate(rays):
+        if r.stop < 0:
+            continue
+        x_end = r.end
+        row = np.zeros(nr)
+        row[c] = 1.0
+        for c2, r2 in enumerate(rays):
+            if r2.base == r.stop:
+                # does this version of the ray reach past the T point?
+                along = ((x_end - r2.end) * np.conj(r2.d)).real
+                if along < -gap_t * max(r2.reach, 1.0):
+                    row[c2] = -1.0
+        cons.append(LinearConstraint(row[None, :], -np.inf, 0))
     for ng in nogoods:
         row = np.zeros(nr)
         row[ng] = 1
@@ -378,12 +449,24 @@ def _arrangement(
         else:
             end = len(pts)
             pts.append(r.end)
-            on_edge[r.edge].append((r.u, end))
+            if r.edge >= 0:
+                on_edge[r.edge].append((r.u, end))
         on_ray.append([(0.0, r.start), (1.0, end)])
+    by_base = {r.base: k for k, r in enumerate(rays)}
+    for a, r in enumerate(rays):
+        if r.stop >= 0:  # a T: the end point lies on the ray it stops at
+            b = by_base[r.stop]
+            rb = rays[b]
+            t = ((r.end - z[rb.start]) * np.conj(rb.end - z[rb.start])).real / abs(
+                rb.end - z[rb.start]
+            ) ** 2
+            on_ray[b].append((t, on_ray[a][1][1]))
     for a in range(len(rays)):
         for b in range(a + 1, len(rays)):
             ra, rb = rays[a], rays[b]
             if {ra.start, ra.join} & {rb.start, rb.join} - {-1}:
+                continue
+            if ra.stop == rb.base or rb.stop == ra.base:
                 continue
             x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
             if x is None:
@@ -568,6 +651,92 @@ def _split_cells(
     return X, Q, sorted(set(cell_face_a[still].tolist()))
 
 
+def _add_point(pts: list[complex], w: complex) -> int:
+    """Index of ``w`` in ``pts``, appended unless a point within rounding of it is there."""
+    P = np.asarray(pts)
+    scale = max(float(np.max(np.abs(P - P[0]))), 1e-300)
+    k = int(np.argmin(np.abs(P - w)))
+    if abs(P[k] - w) <= 1e-12 * scale:
+        return k
+    pts.append(w)
+    return len(pts) - 1
+
+
+def _resolve_hanging(
+    X: NDArray[np.complex128],
+    cells: NDArray[np.int64],
+    tip_mask: NDArray[np.bool_],
+    max_rounds: int = 400,
+) -> tuple[NDArray[np.complex128], NDArray[np.int64]] | None:
+    """Make a layout with hanging points conforming: a cell with points lying inside one of
+    its sides is split along straight lines to the opposite side, at the same parameters (the
+    pieces of a bilinear patch cut along its isolines keep their corners in the range of the
+    cell's corners and their supplements), which carries the split on to the next cell until it
+    reaches the boundary.  None if a cell holding a tip would be split or the splits do not
+    settle (a ring of cells whose parameters never close)."""
+    pts = list(X)
+    cl = [tuple(int(v) for v in c) for c in cells]
+    for _ in range(max_rounds):
+        P = np.asarray(pts, dtype=np.complex128)
+        C = np.asarray(cl, dtype=np.int64)
+        a = P[C]  # (nc, 4)
+        b = P[C[:, [1, 2, 3, 0]]]
+        d = b - a
+        L2 = np.abs(d) ** 2
+        # parameter and distance of every point against every side (vectorised in chunks)
+        found: dict[int, dict[int, list[tuple[float, int]]]] = {}
+        flat_a, flat_d, flat_L2 = a.ravel(), d.ravel(), L2.ravel()
+        for lo in range(0, len(flat_a), 512):
+            sa, sd, sL = (
+                flat_a[lo : lo + 512, None],
+                flat_d[lo : lo + 512, None],
+                flat_L2[lo : lo + 512, None],
+            )
+            w = P[None, :] - sa
+            t = (w * np.conj(sd)).real / sL
+            dist = np.abs((np.conj(sd) * w).imag) / np.sqrt(sL)
+            hit = (t > 1e-9) & (t < 1 - 1e-9) & (dist <= 1e-9 * np.sqrt(sL))
+            for si, pj in zip(*np.nonzero(hit)):
+                g = lo + int(si)
+                found.setdefault(g // 4, {}).setdefault(g % 4, []).append(
+                    (float(t[si, pj]), int(pj))
+                )
+        if not found:
+            return P, C
+        new_cells: list[tuple[int, int, int, int]] = []
+        for ci, c in enumerate(cl):
+            if ci not in found:
+                new_cells.append(c)
+                continue
+            if any(v < len(tip_mask) and tip_mask[v] for v in c):
+                return None
+            k = min(found[ci])  # split across side k (and its opposite side)
+            q = [c[(k + j) % 4] for j in range(4)]  # side k is q0 -> q1, opposite q3 -> q2
+            params = {round(t, 12): t for t, _ in found[ci][k]}
+            for t, _ in found[ci].get((k + 2) % 4, []):
+                params.setdefault(round(1 - t, 12), 1 - t)  # side k+2 runs q2 -> q3
+            ts = sorted(params.values())
+            on_k = {round(t, 12): j for t, j in found[ci][k]}
+            on_o = {round(1 - t, 12): j for t, j in found[ci].get((k + 2) % 4, [])}
+            A, B = [q[0]], [q[3]]
+            for t in ts:
+                key = round(t, 12)
+                ja = on_k.get(key)
+                if ja is None:
+                    ja = _add_point(pts, pts[q[0]] + t * (pts[q[1]] - pts[q[0]]))
+                jb = on_o.get(key)
+                if jb is None:
+                    jb = _add_point(pts, pts[q[3]] + t * (pts[q[2]] - pts[q[3]]))
+                A.append(ja)
+                B.append(jb)
+            A.append(q[1])
+            B.append(q[2])
+            for i in range(len(A) - 1):
+                new_cells.append((A[i], A[i + 1], B[i + 1], B[i]))
+        cl = new_cells
+    return None
+
+
 # --------------------------------------------------------------------------- the layout
 
 
@@ -604,45 +773,80 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
             + ", ".join(f"({z[i].real:.6g}, {z[i].imag:.6g}) ({theta[i]:.1f}°)" for i in vs[:6])
             + " meets the boundary at an angle in [60°, 120°]"
         )
-    bad = _conflicts(z, rays, diam) if rays else []
-    checkpoint()
-    nogoods: list[list[int]] = []
     tip_mask = np.zeros(n, dtype=bool)
     tip_mask[tips] = True
     has_slot = np.zeros(n, dtype=bool)
     has_slot[[i for i, _ in slots]] = True
-    last_problem = ""
+    problems: list[str] = []
+    for tees in (False, True):
+        pool = rays + (_t_variants(z, rays, diam) if tees else [])
+        checkpoint()
+        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems)
+        if lay is not None:
+            return lay
+    raise BlockLayoutError(
+        "no set of straight cuts splits the polygon into blocks with every corner in "
+        f"[60°, 120°] ({len(rays)} candidate cuts at {len({r.start for r in rays})} obtuse or "
+        f"reflex corners{'; ' + problems[-1] if problems else ''})"
+    )
+
+
+def _search(
+    z: NDArray[np.complex128],
+    rays: list[_Ray],
+    slots: list[tuple[int, int]],
+    tips: NDArray[np.int64],
+    tip_mask: NDArray[np.bool_],
+    has_slot: NDArray[np.bool_],
+    diam: float,
+    problems: list[str],
+) -> BlockLayout | None:
+    """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`)."""
+    n = len(z)
+    bad = _conflicts(z, rays, diam) if rays else []
+    checkpoint()
+    nogoods: list[list[int]] = []
     for rnd in range(1, MAX_ROUNDS + 1):
         chosen = _solve(rays, slots, bad, nogoods) if slots else []
         checkpoint()
         if chosen is None:
-            break
+            return None
         sel = [rays[c] for c in chosen]
-        P, faces, face_rays = _arrangement(z, sel)
-        angs = [_face_angles(P, f) for f in faces]
-        # corners must be in range (tips excepted): a triple point can break that
+        P, faces_raw, face_rays = _arrangement(z, sel)
         pm = np.zeros(len(P), dtype=bool)
         pm[tips] = True
         own = np.zeros(len(P), dtype=bool)
         own[:n] = ~has_slot & ~tip_mask
+        faces = []
         wrong = []
-        for fi, (f, a) in enumerate(zip(faces, angs)):
+        for fi, f in enumerate(faces_raw):
+            a = _face_angles(P, f)
+            tee = np.abs(a - 180.0) < 1e-6  # the far side of a T: not a corner
+            f, a = f[~tee], a[~tee]
+            faces.append(f)
             m = np.where(own[f], -ANGLE_TOL, 0.5 * LAYOUT_MARGIN)
             ok = np.where(pm[f], a > 0, (a >= ANGLE_MIN + m) & (a <= ANGLE_MAX - m))
-            if not np.all(ok) or len(f) > 6:
+            if not np.all(ok) or len(f) > 6 or len(f) < 3:
                 wrong.append(fi)
         if not wrong:
             if all(len(f) == 4 for f in faces):
                 cells = np.array(faces, dtype=np.int64)
-                X, split, wrong = P, False, []
-                ang = cell_angles(X[cells])
+                X, split = P, False
             else:
                 X, cells, wrong = _split_cells(P, faces, pm, own)
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
                     X, cells, wrong = _split_cells(P, faces, pm, own, margin=-ANGLE_TOL)
                 split = True
-                ang = cell_angles(X[cells])
             if not wrong:
+                fixed = _resolve_hanging(X, cells, pm)
+                if fixed is None:
+                    problems.append("the splits that remove T-junctions did not settle")
+                    tees = [c for c in chosen if rays[c].stop >= 0]
+                    if not tees:
+                        return None
+                    nogoods.append(sorted(tees))
+                    continue
+                X, cells = fixed
                 return BlockLayout(
                     polygon=z,
                     points=X,
@@ -654,9 +858,10 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
                     tips=tips,
                     split=split,
                     rounds=rnd,
-                    angles=ang,
+                    tees=sum(r.stop >= 0 for r in sel),
+                    angles=cell_angles(X[cells]),
                 )
-        last_problem = f"{len(wrong)} face(s) could not be split into cells"
+        problems.append(f"{len(wrong)} face(s) could not be split into cells")
         for fi in wrong:
             ng = sorted(chosen[k] for k in face_rays[fi])
             if not ng:
@@ -665,11 +870,7 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
                     "quads with corners in [60°, 120°]"
                 )
             nogoods.append(ng)
-    raise BlockLayoutError(
-        "no set of straight cuts splits the polygon into blocks with every corner in "
-        f"[60°, 120°] ({len(rays)} candidate cuts at {len({r.start for r in rays})} obtuse or "
-        f"reflex corners{'; ' + last_problem if last_problem else ''})"
-    )
+    return None
 
 
 def mesh_blocks(
