@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from quadmesh import MeshOptions, mesh_polygon
-from quadmesh.blocks import BlockLayoutError, block_layout, mesh_blocks
+from quadmesh.blocks import BlockLayoutError, _resolve_hanging, block_layout, mesh_blocks
 from quadmesh.cells import cell_angles
 from quadmesh.cli import main as cli_main
 from quadmesh.examples import load_example
@@ -33,6 +33,9 @@ CLOSING = {
     "hexagon": 6,
     "triangle": 3,
     "equilateral_triangle": 3,
+    "bent_channel": 3,
+    "channel_20": 1,
+    "glyph_s": 45,
 }
 
 
@@ -133,3 +136,29 @@ def test_far_polygon_blocks_verified_in_place() -> None:
     res = mesh_polygon(far, MeshOptions(method="blocks"))
     assert res.blocks is not None and res.verification.ok
     assert res.mesh.n_quads == 3 * 8 * 8
+
+
+def test_hanging_points_are_carried_to_the_boundary() -> None:
+    """Two cells on top of one long cell (a T-junction at (1, 1)): the long cell is split at
+    the T's parameter down to the boundary; the result is conforming, covers the same area and
+    refines with every angle in range."""
+    from quadmesh.cells import layout_chords, refine_layout
+
+    pts = np.array([0, 2, 2 + 1j, 1j, 1 + 1j, 1 + 2j, 2j, 2 + 2j], dtype=complex)
+    cells = np.array([[0, 1, 2, 3], [3, 4, 5, 6], [4, 2, 7, 5]])
+    fixed = _resolve_hanging(pts, cells, np.zeros(len(pts), bool))
+    assert fixed is not None
+    P, C = fixed
+    assert len(C) == 4  # the long cell in two
+    np.testing.assert_allclose(P[C].real.min(), 0.0)
+    ch = layout_chords(C, len(P))  # raises unless conforming (each edge in at most two cells)
+    assert len(ch.boundary_edges) == 8
+    area = 0.5 * np.sum((np.conj(P[C]) * P[C][:, [1, 2, 3, 0]]).imag)
+    assert abs(area - 4.0) < 1e-12
+    pts2, quads, _ = refine_layout(P, C, size=0.25)
+    ang = cell_angles(pts2[quads])
+    assert ang.min() > 90 - 1e-9 and ang.max() < 90 + 1e-9
+    # a T on a cell holding a tip cannot be removed: None
+    tip = np.zeros(len(pts), bool)
+    tip[1] = True
+    assert _resolve_hanging(pts, cells, tip) is None
