@@ -60,6 +60,11 @@ MAX_ROUNDS = 40
 #: polygon corners within this of 60° or 120° (degrees; rounding of their coordinates) count
 #: as in range
 ANGLE_TOL = 1e-7
+#: most cut slots (corners above 120°, two for those above 240°) a layout is searched for; the
+#: pairwise search grows with the square of the candidates
+MAX_SLOTS = 120
+#: T-junction candidates are tried only while the full rays number at most this
+MAX_RAYS_FOR_TEES = 600
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -326,6 +331,7 @@ def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list
     Q = np.array([r.end for r in rays])
     for a in range(nr):
         ra = rays[a]
+        checkpoint()
         for b in range(a + 1, nr):
             rb = rays[b]
             if (ra.stop >= 0 and ra.stop == rb.base) or (rb.stop >= 0 and rb.stop == ra.base):
@@ -760,6 +766,12 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
     diam = float(np.max(np.abs(z[:, None] - z[None, :]))) if n < 3000 else _diam_hull(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
     slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]))))]
+    if len(slots) > MAX_SLOTS:
+        raise BlockLayoutError(
+            f"{len(slots)} cuts would be needed ({len({i for i, _ in slots})} corners above "
+            f"120°); block layouts are searched for at most {MAX_SLOTS}. Fewer vertices on the "
+            "round parts of the outline would help"
+        )
     rays = _candidates(z, theta, diam) if slots else []
     checkpoint()
     covered = {s for r in rays for s in r.slots}
@@ -779,6 +791,8 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
     has_slot[[i for i, _ in slots]] = True
     problems: list[str] = []
     for tees in (False, True):
+        if tees and len(rays) > MAX_RAYS_FOR_TEES:
+            break
         pool = rays + (_t_variants(z, rays, diam) if tees else [])
         checkpoint()
         lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems)
