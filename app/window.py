@@ -137,7 +137,7 @@ OPTION_TIPS: dict[str, str] = {
     "repair": "Before the adaptive loop changes n, move interior vertices near quads that "
     "leave [60°, 120°] by a small fraction of their edges. Keeps the quad count; off: only "
     "raising n (more quads, more time) fixes bad angles.",
-    "size": "Blocks only: target edge length of the quads, as a fraction of the polygon's "
+    "size": "Blocks only: target edge length of the quads, as a fraction of d, the polygon's "
     "diameter (its bounding box diagonal). Every chord of blocks gets ceil(its longest edge / "
     "size) segments, so halving it gives about four times the quads; blocks holding a corner "
     "below 60° stay whole.",
@@ -406,15 +406,20 @@ class MainWindow(QMainWindow):
             self.method_combo.addItem(METHOD_TITLES.get(method, method), method)
         self.method_combo.setCurrentIndex(METHODS.index(defaults.method))
         self.method_combo.setToolTip(METHOD_TIP)
-        mf.addRow("Method", self.method_combo)
-        mf.labelForField(self.method_combo).setToolTip(METHOD_TIP)
+        # a row of its own across the panel: its longest item would widen the field column
+        mrow = QHBoxLayout()
+        method_label = QLabel("Method")
+        method_label.setToolTip(METHOD_TIP)
+        mrow.addWidget(method_label)
+        mrow.addWidget(self.method_combo, 1)
+        mf.addRow(mrow)
         self.block_size_spin = QDoubleSpinBox()
         self.block_size_spin.setObjectName("block_size_spin")
         self.block_size_spin.setDecimals(3)
         self.block_size_spin.setRange(0.005, 1.0)
         self.block_size_spin.setSingleStep(0.01)
         self.block_size_spin.setValue(DEFAULT_BLOCK_FRACTION)
-        self.block_size_spin.setSuffix(" × diameter")
+        self.block_size_spin.setSuffix(" d")  # as in quadmesh mesh --size 0.05d
         self.option_widgets["size"] = self.block_size_spin
         mf.addRow("Block size", self.block_size_spin)
         mf.labelForField(self.block_size_spin).setToolTip(OPTION_TIPS["size"])
