@@ -296,6 +296,7 @@ class MainWindow(QMainWindow):
         bar.addWidget(QLabel("thick piece"))
         self.piece_spin = QSpinBox()
         self.piece_spin.setRange(0, 0)
+        self.piece_spin.setEnabled(False)  # until a result (or a failed run) has thick pieces
         self.piece_spin.valueChanged.connect(self._on_piece_changed)
         bar.addWidget(self.piece_spin)
         self.reset_disk_btn = QPushButton("Centre 0")
@@ -423,6 +424,15 @@ class MainWindow(QMainWindow):
         self.option_widgets["size"] = self.block_size_spin
         mf.addRow("Block size", self.block_size_spin)
         mf.labelForField(self.block_size_spin).setToolTip(OPTION_TIPS["size"])
+        # a note on the last run that is not a failure (why Blocks fell back to the paper's
+        # construction), under the method it is about; hidden when there is none
+        self.note_label = QLabel("")
+        self.note_label.setObjectName("note_label")
+        self.note_label.setWordWrap(True)
+        self.note_label.setStyleSheet("color: #8a4b00")
+        self.note_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.note_label.hide()
+        mf.addRow(self.note_label)
         for name, (label, kind, lo, hi, step, dec) in _OPTION_SPECS.items():
             if not hasattr(defaults, name):
                 continue
@@ -477,14 +487,6 @@ class MainWindow(QMainWindow):
         # the whole message of the last failure, wrapped and scrollable (hidden when none)
         self.error_box = ErrorBox()
         mf.addRow(self.error_box)
-        # notes on the last run that are not failures (why Blocks fell back); hidden when none
-        self.note_label = QLabel("")
-        self.note_label.setObjectName("note_label")
-        self.note_label.setWordWrap(True)
-        self.note_label.setStyleSheet("color: #8a4b00")
-        self.note_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
-        self.note_label.hide()
-        mf.addRow(self.note_label)
         self.mesh_scroll = _scrolled(mesh, 290)
         mesh_dock = self._add_dock("Mesh", self.mesh_scroll, Qt.RightDockWidgetArea)
 
@@ -1436,6 +1438,8 @@ class MainWindow(QMainWindow):
     def _draw_disk_result(self) -> None:
         r = self._disk_source()
         self._mark_piece_spin()
+        # nothing to step through without thick pieces (a block mesh, no result)
+        self.piece_spin.setEnabled(r is not None and bool(r.pieces))
         for name in _RESULT_DISK:
             if r is None or not r.pieces:
                 self._put(self.disk, name, None)
@@ -1455,6 +1459,7 @@ class MainWindow(QMainWindow):
         self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
+        self.piece_spin.setEnabled(bool(self._partial_pieces()))
         self._update_fill()
         self.info_label.setText(why)
         self.histogram.clear()

@@ -180,7 +180,7 @@ def test_blocks_chosen_with_the_keyboard_mesh_layer_and_pick(main_window, qtbot)
     for name in ("region_w", "disk_mesh", "prevertices"):
         assert not win.disk.layer_actors(name), name
     assert win.disk.layer_actors("tessellation")
-    assert win.piece_spin.maximum() == 0
+    assert win.piece_spin.maximum() == 0 and not win.piece_spin.isEnabled()
 
     # clicking a quad says it came from a block, and which coarse cell
     mesh = r.mesh
@@ -237,6 +237,7 @@ def test_octagon_falls_back_and_says_why(main_window, qtbot):
     assert win.error_box.isHidden()  # not a failure
     assert not win.plane.layer_actors("block_layout")
     assert win.disk.layer_actors("disk_mesh")  # the paper's disk construction is shown
+    assert win.piece_spin.isEnabled()
     # a picked quad names its stage from the paper's construction
     src = np.asarray(r.quad_source)
     k = int(np.flatnonzero(src == 0)[0])
