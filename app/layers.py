@@ -30,6 +30,7 @@ DEFAULT_VISIBLE: dict[str, bool] = {
     "crosscuts": True,
     "conformal_images": False,
     "final_mesh": True,
+    "block_layout": True,
     "bad_quads": True,
     "tessellation": True,
     "region_w": True,

@@ -12,7 +12,13 @@ import numpy as np
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import QGridLayout, QGroupBox, QLabel, QWidget
 
-from quadmesh.render import KIND_COLORS, PIECE_PALETTE, THIN_COLORS
+from quadmesh.render import (
+    BLOCK_COLORS,
+    KIND_COLORS,
+    PIECE_PALETTE,
+    THIN_COLORS,
+    block_layout_edges,
+)
 
 __all__ = ["THIN_KIND_TITLES", "LegendPanel", "legend_entries"]
 
@@ -48,10 +54,19 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
     """``(layer, label, "#rrggbb")`` for every categorical colour drawn by a visible layer of
     ``result`` (a MeshResult; None gives no entries): thick pieces (one palette colour per
     piece, as drawn), thin part kinds present, and the disk region's piece kinds present in
-    thick piece number ``piece`` (the one the disk view shows)."""
-    if result is None or getattr(result, "decomposition", None) is None:
+    thick piece number ``piece`` (the one the disk view shows); for a block mesh, the block
+    layout's cuts and its other inner cell edges (where it has them)."""
+    if result is None:
         return []
     out: list[tuple[str, str, str]] = []
+    layout = getattr(result, "blocks", None)
+    if "block_layout" in visible and layout is not None:
+        if len(layout.cuts):
+            out.append(("block_layout", "cut", BLOCK_COLORS["cuts"]))
+        if len(block_layout_edges(layout)[0]):
+            out.append(("block_layout", "coarse cell edge", BLOCK_COLORS["cell edges"]))
+    if getattr(result, "decomposition", None) is None:
+        return out
     if "thick_pieces" in visible:
         for k in range(len(result.decomposition.thick)):
             out.append(("thick_pieces", f"thick piece {k}", PIECE_PALETTE[k % len(PIECE_PALETTE)]))

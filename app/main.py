@@ -5,7 +5,9 @@ Interactive use: ``quadmesh-app``.  Scripted use (for documentation screenshots 
     quadmesh-app --open poly.json --mesh --layers polygon,final_mesh \\
                  --screenshot out.png --quit
 
-``--example NAME`` loads a bundled polygon instead of a file.  With ``--quit`` the exit status
+``--example NAME`` loads a bundled polygon instead of a file; ``--method blocks`` (with
+``--block-size 0.05``, a fraction of the polygon's diameter) chooses the block mesher in the
+Mesh panel before meshing.  With ``--quit`` the exit status
 is 0 when every requested step succeeded, otherwise the reason is printed to stderr and the
 status is 1 (2 for bad command-line arguments).
 """
@@ -15,6 +17,8 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+
+from quadmesh.result import METHODS
 
 __all__ = ["build_parser", "main", "run"]
 
@@ -35,6 +39,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     src.add_argument("--example", metavar="NAME", help="load a bundled example polygon")
     p.add_argument("--mesh", action="store_true", help="run the mesher to completion")
+    p.add_argument(
+        "--method",
+        choices=METHODS,
+        default=None,
+        help="meshing method chosen in the Mesh panel (default: the panel's, the paper's)",
+    )
+    p.add_argument(
+        "--block-size",
+        type=float,
+        metavar="FRACTION",
+        help="Block size of the Mesh panel for --method blocks: a fraction of the diameter",
+    )
     p.add_argument("--layers", metavar="A,B,…", help="comma-separated layers to show")
     p.add_argument(
         "--color-by",
@@ -86,6 +102,16 @@ def run(argv: Sequence[str] | None = None) -> int:
             win.set_visible_layers([s.strip() for s in args.layers.split(",") if s.strip()])
         if args.color_by != "corner":
             win.layer_panel.color_mode.setCurrentIndex(1)
+        if args.method is not None:
+            win.method_combo.setCurrentIndex(win.method_combo.findData(args.method))
+        if args.block_size is not None:
+            spin = win.block_size_spin
+            if not spin.minimum() <= args.block_size <= spin.maximum():
+                raise ValueError(
+                    f"--block-size must be in [{spin.minimum():g}, {spin.maximum():g}], "
+                    f"got {args.block_size:g}"
+                )
+            spin.setValue(args.block_size)
         if args.open:
             win.open_file(args.open)
         elif args.example:

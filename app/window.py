@@ -23,6 +23,7 @@ from PySide6.QtGui import QAction, QDoubleValidator, QKeySequence, QTextDocument
 from PySide6.QtWidgets import (
     QAbstractButton,
     QCheckBox,
+    QComboBox,
     QDialog,
     QDialogButtonBox,
     QDockWidget,
@@ -67,7 +68,7 @@ from quadmesh.render import (
     polygon_layer,
     unit_circle_part,
 )
-from quadmesh.result import MeshOptions
+from quadmesh.result import METHODS, MeshOptions
 
 from .drawing import PolygonEditor
 from .histogram import AngleHistogram
@@ -136,7 +137,25 @@ OPTION_TIPS: dict[str, str] = {
     "repair": "Before the adaptive loop changes n, move interior vertices near quads that "
     "leave [60°, 120°] by a small fraction of their edges. Keeps the quad count; off: only "
     "raising n (more quads, more time) fixes bad angles.",
+    "size": "Blocks only: target edge length of the quads, as a fraction of d, the polygon's "
+    "diameter (its bounding box diagonal). Every chord of blocks gets ceil(its longest edge / "
+    "size) segments, so halving it gives about four times the quads; blocks holding a corner "
+    "below 60° stay whole.",
 }
+
+#: The meshing methods of the Mesh panel's selector: (MeshOptions.method, what the user reads).
+METHOD_TITLES: dict[str, str] = {"bishop": "Bishop (paper)", "blocks": "Blocks (few quads)"}
+METHOD_TIP = (
+    "How the polygon is meshed. Bishop (paper): the paper's construction (conformal maps, "
+    "thick and thin parts), every stage shown in both views. Blocks (few quads): straight cuts "
+    "from the obtuse and reflex corners split the polygon into convex blocks with every corner "
+    "in [60°, 120°], refined by grids: the same angle guarantee with far fewer quads; when no "
+    "such cuts exist the paper's construction is used instead and the Mesh panel says why."
+)
+#: Default of the Block size control: the fraction of the diameter MeshOptions(size=None) uses.
+DEFAULT_BLOCK_FRACTION = 0.05
+#: Mesh-panel settings that only the paper's construction reads (disabled for Blocks).
+BISHOP_ONLY = (*_OPTION_SPECS, "conformal_tol", "adaptive", "repair")
 
 _DISK_HINT = "drag: point → centre · click: pick 2 points"
 _RECENT_MAX = 8
@@ -277,6 +296,7 @@ class MainWindow(QMainWindow):
         bar.addWidget(QLabel("thick piece"))
         self.piece_spin = QSpinBox()
         self.piece_spin.setRange(0, 0)
+        self.piece_spin.setEnabled(False)  # until a result (or a failed run) has thick pieces
         self.piece_spin.valueChanged.connect(self._on_piece_changed)
         bar.addWidget(self.piece_spin)
         self.reset_disk_btn = QPushButton("Centre 0")
@@ -381,6 +401,38 @@ class MainWindow(QMainWindow):
         mf = QFormLayout(mesh)
         self.option_widgets: dict[str, QSpinBox | QDoubleSpinBox | QCheckBox | QLineEdit] = {}
         defaults = MeshOptions()
+        self.method_combo = QComboBox()
+        self.method_combo.setObjectName("method_combo")
+        for method in METHODS:
+            self.method_combo.addItem(METHOD_TITLES.get(method, method), method)
+        self.method_combo.setCurrentIndex(METHODS.index(defaults.method))
+        self.method_combo.setToolTip(METHOD_TIP)
+        # a row of its own across the panel: its longest item would widen the field column
+        mrow = QHBoxLayout()
+        method_label = QLabel("Method")
+        method_label.setToolTip(METHOD_TIP)
+        mrow.addWidget(method_label)
+        mrow.addWidget(self.method_combo, 1)
+        mf.addRow(mrow)
+        self.block_size_spin = QDoubleSpinBox()
+        self.block_size_spin.setObjectName("block_size_spin")
+        self.block_size_spin.setDecimals(3)
+        self.block_size_spin.setRange(0.005, 1.0)
+        self.block_size_spin.setSingleStep(0.01)
+        self.block_size_spin.setValue(DEFAULT_BLOCK_FRACTION)
+        self.block_size_spin.setSuffix(" d")  # as in quadmesh mesh --size 0.05d
+        self.option_widgets["size"] = self.block_size_spin
+        mf.addRow("Block size", self.block_size_spin)
+        mf.labelForField(self.block_size_spin).setToolTip(OPTION_TIPS["size"])
+        # a note on the last run that is not a failure (why Blocks fell back to the paper's
+        # construction), under the method it is about; hidden when there is none
+        self.note_label = QLabel("")
+        self.note_label.setObjectName("note_label")
+        self.note_label.setWordWrap(True)
+        self.note_label.setStyleSheet("color: #8a4b00")
+        self.note_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
+        self.note_label.hide()
+        mf.addRow(self.note_label)
         for name, (label, kind, lo, hi, step, dec) in _OPTION_SPECS.items():
             if not hasattr(defaults, name):
                 continue
@@ -411,6 +463,8 @@ class MainWindow(QMainWindow):
         mf.addRow(self.repair_check)
         for name, w in self.option_widgets.items():
             w.setToolTip(OPTION_TIPS[name])
+        self.method_combo.currentIndexChanged.connect(lambda _i: self._method_changed())
+        self._method_changed()
         brow = QHBoxLayout()
         self.mesh_button = QPushButton("Mesh")
         self.mesh_button.setObjectName("mesh_button")
@@ -897,7 +951,8 @@ class MainWindow(QMainWindow):
     def quad_info(self, k: int) -> dict[str, Any]:
         """What the app tells about quad ``k`` of the mesh on screen: its four corner angles
         (degrees, at ``quads[k, 0..3]``), the worst |angle − 90°|, and, for a meshed result,
-        its stage kind ("disk", "sector", "channel", "corridor") and the part it came from."""
+        its stage kind ("disk", "sector", "channel", "corridor", "block") and the part it came
+        from (for a block mesh: the coarse cell of the block layout that holds it)."""
         from quadmesh.io import STAGE_KINDS, quad_part_index
 
         mesh = self.shown_mesh()
@@ -916,12 +971,31 @@ class MainWindow(QMainWindow):
         src = getattr(r, "quad_source", None)
         if src is not None and len(src) == mesh.n_quads:
             info["stage"] = STAGE_KINDS.get(int(src[k]), str(int(src[k])))
+        if getattr(r, "blocks", None) is not None:
+            cell = self._block_cell_of(mesh.z[mesh.quads[k]].mean())
+            if cell is not None:
+                info["piece"] = cell
+                info["part"] = f"coarse cell {cell} of the block layout"
+            return info
         part = quad_part_index(r)
         if part is not None:
             j = int(part[k])
             info["piece"] = j
             info["part"] = self._describe_part(j)
         return info
+
+    def _block_cell_of(self, w: complex) -> int | None:
+        """The coarse cell of the result's block layout that holds the mesh point ``w`` (mesh
+        coordinates; the cells are convex and counter-clockwise), None if none does."""
+        r = self.result
+        lay = r.blocks
+        p = complex(w) + complex(r.mesh_origin or 0j) - complex(r.origin or 0j)
+        c = np.asarray(lay.points, dtype=np.complex128)[np.asarray(lay.cells, dtype=np.int64)]
+        e = np.roll(c, -1, axis=1) - c
+        d = p - c
+        cross = e.real * d.imag - e.imag * d.real
+        inside = np.flatnonzero(np.all(cross >= -1e-9 * np.abs(e) ** 2, axis=1))
+        return int(inside[0]) if inside.size else None
 
     def _describe_part(self, j: int) -> str:
         r = self.result
@@ -958,7 +1032,9 @@ class MainWindow(QMainWindow):
         text = f"quad {k}: angles {angles}; worst |θ − 90°| = {info['worst']:.2f}°"
         if info["stage"] is not None:
             text += f"; stage: {info['stage']}"
-        if info["part"] is not None:
+        if info["part"] is not None and info["stage"] == "block":
+            text += f"; {info['part']}"
+        elif info["part"] is not None:
             text += f"; piece {info['piece']}: {info['part']}"
         self.quad_label.setText(text)
         self.statusBar().showMessage(text, 15000)
@@ -1064,7 +1140,10 @@ class MainWindow(QMainWindow):
     def mesh_options(self) -> MeshOptions:
         """MeshOptions from the parameter controls (ValueError if they are inconsistent)."""
         kw: dict[str, Any] = {}
+        method = self.method
         for name, w in self.option_widgets.items():
+            if name == "size":
+                continue
             if isinstance(w, QCheckBox):
                 kw[name] = w.isChecked()
             elif isinstance(w, QLineEdit):
@@ -1074,8 +1153,35 @@ class MainWindow(QMainWindow):
         kw["n"] = int(kw["n"])
         kw["max_n"] = int(kw["max_n"])
         kw["rotations"] = int(kw["rotations"])
+        kw["method"] = method
+        if method == "blocks":
+            kw["size"] = self.block_size()
         valid = {f.name for f in dataclasses.fields(MeshOptions)}
         return MeshOptions(**{k: v for k, v in kw.items() if k in valid})
+
+    @property
+    def method(self) -> str:
+        """The meshing method chosen in the Mesh panel (``MeshOptions.method``)."""
+        return str(self.method_combo.currentData())
+
+    def block_size(self) -> float | None:
+        """``MeshOptions.size`` of the Block size control: its fraction times the diameter of
+        the polygon drawn (its bounding box diagonal, the "d" of ``quadmesh mesh --size 0.05d``);
+        None while there is no polygon to measure."""
+        z = self.editor.z
+        if z.size < 2:
+            return None
+        d = float(np.hypot(np.ptp(z.real), np.ptp(z.imag)))
+        return self.block_size_spin.value() * d if d > 0 else None
+
+    def _method_changed(self) -> None:
+        """Blocks: the Block size control on, the paper's settings off (and back)."""
+        blocks = self.method == "blocks"
+        self.block_size_spin.setEnabled(blocks)
+        for name in BISHOP_ONLY:
+            w = self.option_widgets.get(name)
+            if w is not None:
+                w.setEnabled(not blocks)
 
     def start_mesh(self, job: Any = None) -> bool:
         """Start meshing the current polygon in the worker thread (or run ``job(progress,
@@ -1102,6 +1208,7 @@ class MainWindow(QMainWindow):
 
         self._job_polygon = tuple(self.editor.points)
         self._clear_error()
+        self._set_note(None)
         self.mesh_button.setEnabled(False)
         self.cancel_button.setEnabled(True)
         self.progress_bar.setValue(0)
@@ -1283,6 +1390,11 @@ class MainWindow(QMainWindow):
             self.progress_bar.setFormat("idle")
 
     # ================================================================== result display
+    def _set_note(self, text: str | None) -> None:
+        """Show a note on the last run in the Mesh panel (None: hide it)."""
+        self.note_label.setText(text or "")
+        self.note_label.setVisible(bool(text))
+
     def set_result(self, result: Any) -> None:
         """Show a MeshResult: build every layer, the information panel and the histogram."""
         self.result = result
@@ -1306,6 +1418,10 @@ class MainWindow(QMainWindow):
         self._update_info(problems)
         self._refresh_legend()
         self._forget_picked_quad()
+        fallback = getattr(result, "fallback", None)
+        self._set_note(f"Blocks fell back: {fallback}" if fallback else None)
+        if fallback:
+            self.statusBar().showMessage(f"Blocks fell back: {fallback}", 30000)
         if self.plane.fit_bounds is not None:
             self.reset_plane_view()  # still fitted: make room for the colour bar
         self.plane.render()
@@ -1322,6 +1438,8 @@ class MainWindow(QMainWindow):
     def _draw_disk_result(self) -> None:
         r = self._disk_source()
         self._mark_piece_spin()
+        # nothing to step through without thick pieces (a block mesh, no result)
+        self.piece_spin.setEnabled(r is not None and bool(r.pieces))
         for name in _RESULT_DISK:
             if r is None or not r.pieces:
                 self._put(self.disk, name, None)
@@ -1335,11 +1453,13 @@ class MainWindow(QMainWindow):
 
     def _drop_result(self, why: str) -> None:
         self.result = None
+        self._set_note(None)
         self.loaded_mesh = self._loaded = None
         self._refresh_legend()
         self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
+        self.piece_spin.setEnabled(bool(self._partial_pieces()))
         self._update_fill()
         self.info_label.setText(why)
         self.histogram.clear()
@@ -1387,12 +1507,27 @@ class MainWindow(QMainWindow):
             ("min new angle", f"{q.min_angle:.3f}°"),
             ("max new angle", f"{q.max_angle:.3f}°"),
             ("outside [60°,120°]", f"{q.n_angles_outside}"),
-            (
-                "thick pieces (n used)",
-                f"{len(r.pieces)} (" + ", ".join(str(p.n_used) for p in r.pieces) + ")",
-            ),
-            ("thin parts", f"{len(r.thin)}"),
         ]
+        lay = getattr(r, "blocks", None)
+        if lay is not None:
+            size = getattr(r.options, "size", None)
+            split = " (faces split at centres)" if lay.split else ""
+            rows += [
+                ("method", "blocks"),
+                ("coarse cells", f"{lay.n_cells}{split}"),
+                ("cuts", f"{len(lay.cuts)}"),
+                ("block size", "default (d/20)" if size is None else f"{size:.4g}"),
+            ]
+        else:
+            if getattr(r, "fallback", None):
+                rows.append(("method", "paper (Blocks fell back)"))
+            rows += [
+                (
+                    "thick pieces (n used)",
+                    f"{len(r.pieces)} (" + ", ".join(str(p.n_used) for p in r.pieces) + ")",
+                ),
+                ("thin parts", f"{len(r.thin)}"),
+            ]
         if q.n_original:
             rows.append(
                 (
@@ -1414,6 +1549,8 @@ class MainWindow(QMainWindow):
         if fixes:
             html += "<p><b>adaptive fixes</b></p><ul>"
             html += "".join(f"<li>{html_escape(f)}</li>" for f in fixes) + "</ul>"
+        if getattr(r, "fallback", None):
+            html += f"<p style='color:#8a4b00'>{html_escape(r.fallback)}</p>"
         if problems:
             html += (
                 "<p style='color:#c00000'>layers not drawn:<br>" + "<br>".join(problems) + "</p>"

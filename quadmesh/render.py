@@ -10,8 +10,10 @@ Two views:
   ``thick_pieces``, ``thin_parts`` (parabolic vertex sectors and hyperbolic channels),
   ``crosscuts``, ``conformal_images`` (the disk pieces of Lemma 2.2 pushed forward by the
   conformal map, coloured by kind), ``final_mesh`` (coloured by corner angle or by each quad's
-  worst deviation from 90°, with a colour bar) and ``bad_quads`` (quads with a new angle outside
-  [60°, 120°]; normally empty).
+  worst deviation from 90°, with a colour bar), ``block_layout`` (for ``method="blocks"``: the
+  straight cuts and the other inner edges of the coarse cells that the final mesh refines —
+  with the polygon's outline, every coarse cell edge; empty for the paper's construction) and
+  ``bad_quads`` (quads with a new angle outside [60°, 120°]; normally empty).
 * ``"disk"`` — one thick piece in the unit disk: ``tessellation`` (the right-pentagon
   tessellation T5 of §2), ``region_w`` (right pentagons, Carleson quadrilaterals and Carleson
   triangles of Lemma 2.2, each in its own colour), ``disk_mesh`` (the quads of Lemmas 4.1, 5.1,
@@ -36,6 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover - typing only
     import pyvista as pv
 
 __all__ = [
+    "BLOCK_COLORS",
     "DISK_LAYERS",
     "KIND_COLORS",
     "LAYER_COLORS",
@@ -45,6 +48,7 @@ __all__ = [
     "LayerPart",
     "add_layer",
     "bad_quad_mask",
+    "block_layout_edges",
     "build_disk_layer",
     "build_layer",
     "fit_camera",
@@ -65,6 +69,7 @@ PLANE_LAYERS: tuple[str, ...] = (
     "crosscuts",
     "conformal_images",
     "final_mesh",
+    "block_layout",
     "bad_quads",
 )
 DISK_LAYERS: tuple[str, ...] = ("tessellation", "region_w", "disk_mesh", "prevertices")
@@ -76,6 +81,7 @@ LAYER_TITLES: dict[str, str] = {
     "crosscuts": "Crosscuts",
     "conformal_images": "Conformal images",
     "final_mesh": "Final mesh",
+    "block_layout": "Block layout",
     "bad_quads": "Bad quads",
     "tessellation": "Tessellation T5",
     "region_w": "Region W pieces",
@@ -93,6 +99,7 @@ KIND_COLORS: dict[str, str] = {
 LAYER_COLORS: dict[str, str] = {
     "polygon": "#000000",
     "crosscuts": "#d62728",
+    "block_layout": "#009e73",
     "bad_quads": "#ff00ff",
     "tessellation": "#7f7f7f",
     "disk_mesh": "#000000",
@@ -116,6 +123,8 @@ PIECE_PALETTE: tuple[str, ...] = (
     "#ffed6f",
 )
 ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
+#: Colours of the block layout's two parts: the coarse cells' edges and the cuts on top.
+BLOCK_COLORS: dict[str, str] = {"cuts": LAYER_COLORS["block_layout"], "cell edges": "#0b3d91"}
 CORNER_TITLE = "corner angle (deg)"
 WORST_TITLE = "worst deviation from 90 (deg)"
 
@@ -405,9 +414,13 @@ def _new_angle_mask(result: Any, ang: np.ndarray) -> np.ndarray:
     return result.mesh.new_angle_mask(result.polygon)
 
 
-def _quality_range(result: Any) -> tuple[float, float]:
+def _angle_clim(result: Any) -> tuple[float, float]:
+    """Colour range of the corner-angle colouring: [60°, 120°], widened to the new angles'
+    range when some leave it.  Fixed rather than the data's own range, so that one colour means
+    one angle in every result, and a mesh whose angles are all 90° (a block mesh) is drawn in
+    one colour instead of noise stretched over a range of width 1e-12."""
     q = result.quality
-    return float(q.min_angle), float(q.max_angle)
+    return min(float(q.min_angle), ANGLE_MIN), max(float(q.max_angle), ANGLE_MAX)
 
 
 # ----------------------------------------------------------------------------- plane layers
@@ -435,6 +448,8 @@ def polygon_layer(z: np.ndarray, closed: bool = True, color: str = "black") -> L
 
 
 def _layer_thick_pieces(result: Any) -> list[LayerPart]:
+    if result.decomposition is None:  # method="blocks": no thick pieces
+        return []
     polys = [_complex_vertices(t) for t in result.decomposition.thick]
     fill = _filled_polygons(polys)
     parts = []
@@ -552,7 +567,7 @@ def _layer_final_mesh(result: Any, color_by: str) -> list[LayerPart]:
     quads = np.asarray(mesh.quads, dtype=np.int64)
     ang = np.asarray(mesh.angles(), dtype=np.float64)
     new = _new_angle_mask(result, ang)
-    lo, hi = _quality_range(result)
+    lo, hi = _angle_clim(result)
     if color_by == "corner":
         # unshared corners: point k of quad q carries the angle of quad q at that corner
         q_n = quads.shape[0]
@@ -567,7 +582,7 @@ def _layer_final_mesh(result: Any, color_by: str) -> list[LayerPart]:
         surf = _quads_polydata(z, quads)
         dev = np.where(new, np.abs(ang - 90.0), 0.0).max(axis=1)
         surf.cell_data["worst_deviation"] = dev
-        top = max(abs(lo - 90.0), abs(hi - 90.0))
+        top = max(abs(lo - 90.0), abs(hi - 90.0))  # at least 30°: see _angle_clim
         scal, title, clim, cmap = "worst_deviation", WORST_TITLE, (0.0, top), "viridis"
     else:
         raise ValueError(f"color_by must be 'corner' or 'worst', got {color_by!r}")
@@ -575,6 +590,64 @@ def _layer_final_mesh(result: Any, color_by: str) -> list[LayerPart]:
     return [
         LayerPart(surf, scalars=scal, cmap=cmap, clim=clim, scalar_bar_title=title, label="quads"),
         LayerPart(edges, color="black", line_width=0.8, style="wireframe", label="edges"),
+    ]
+
+
+def block_layout_edges(layout: Any, tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+    """Point index pairs (a, b) of the edges of a block layout's coarse cells
+    (:class:`quadmesh.blocks.BlockLayout`) that neither lie on the polygon's boundary nor on
+    one of its cuts: the spokes from the centre points where faces were split (none when
+    ``layout.split`` is False).  With the polygon's outline and the cuts they draw every cell
+    edge once.  ``tol`` is relative to the polygon's size."""
+    cells = np.asarray(layout.cells, dtype=np.int64).reshape(-1, 4)
+    empty = np.zeros(0, dtype=np.int64)
+    if cells.size == 0:
+        return empty, empty
+    pts = np.asarray(layout.points, dtype=np.complex128)
+    a, b = cells.ravel(), np.roll(cells, -1, axis=1).ravel()
+    m = int(cells.max()) + 1
+    key = np.unique(np.minimum(a, b) * m + np.maximum(a, b))
+    a, b = key // m, key % m
+    poly = np.asarray(layout.polygon, dtype=np.complex128)
+    eps = tol * max(float(np.ptp(poly.real)), float(np.ptp(poly.imag)), 1e-300)
+    segs = np.asarray(layout.cuts, dtype=np.complex128).reshape(-1, 2)
+    segs = np.concatenate([segs, np.column_stack([poly, np.roll(poly, -1)])])
+    s0, s1 = segs[:, 0], segs[:, 1]
+
+    def on_segment(z: np.ndarray) -> np.ndarray:
+        # (E, S): point z[e] within eps of segment s
+        d = s1 - s0
+        t = np.clip(
+            ((z[:, None] - s0) * np.conj(d)).real / np.maximum(np.abs(d) ** 2, 1e-300), 0.0, 1.0
+        )
+        return np.abs(z[:, None] - (s0 + t * d)) <= eps
+
+    covered = np.any(on_segment(pts[a]) & on_segment(pts[b]), axis=1)
+    return a[~covered], b[~covered]
+
+
+def _layer_block_layout(result: Any) -> list[LayerPart]:
+    layout = getattr(result, "blocks", None)
+    if layout is None:
+        return []
+    pts = np.asarray(layout.points, dtype=np.complex128)
+    a, b = block_layout_edges(layout)
+    cuts = np.asarray(layout.cuts, dtype=np.complex128).reshape(-1, 2)
+    return [
+        LayerPart(
+            _segments_polydata(pts[a], pts[b]),
+            color=BLOCK_COLORS["cell edges"],
+            line_width=3.0,
+            style="wireframe",
+            label="cell edges",
+        ),
+        LayerPart(
+            _segments_polydata(cuts[:, 0], cuts[:, 1]),
+            color=BLOCK_COLORS["cuts"],
+            line_width=4.0,
+            style="wireframe",
+            label="cuts",
+        ),
     ]
 
 
@@ -762,8 +835,9 @@ def build_layer(
     ``region_w`` and ``disk_mesh`` layers and only its prevertices and arcs I_j, and the plane
     layers show the pieces that got that far.
     ``color_by`` chooses the colouring of ``final_mesh``: ``"corner"`` (each corner's angle,
-    colour range = the quality report's min/max new angle) or ``"worst"`` (each quad's largest
-    deviation of a new angle from 90°).
+    colour range [60°, 120°], widened to the new angles' range when some leave it) or
+    ``"worst"`` (each quad's largest deviation of a new angle from 90°, range at least
+    [0°, 30°]).
     """
     if name in DISK_LAYERS:
         if name == "tessellation":
@@ -786,13 +860,20 @@ def build_layer(
         "crosscuts": _layer_crosscuts,
         "conformal_images": _layer_conformal_images,
         "final_mesh": lambda r: _layer_final_mesh(r, color_by),
+        "block_layout": _layer_block_layout,
         "bad_quads": _layer_bad_quads,
     }
     if name not in builders:
         raise ValueError(f"unknown layer {name!r}; expected one of {PLANE_LAYERS + DISK_LAYERS}")
     parts = [p for p in builders[name](result) if p.mesh.n_points > 0]
     origin = complex(getattr(result, "origin", 0j))
-    if origin and name in ("thick_pieces", "thin_parts", "crosscuts", "conformal_images"):
+    if origin and name in (
+        "thick_pieces",
+        "thin_parts",
+        "crosscuts",
+        "conformal_images",
+        "block_layout",
+    ):
         # these stages ran on the polygon translated by −origin (MeshResult.origin)
         for p in parts:
             p.mesh.translate((origin.real, origin.imag, 0.0), inplace=True)

@@ -16,7 +16,10 @@ pytestmark = pytest.mark.gui
 def _reachable(win, scroll, w: QWidget) -> bool:
     """Scroll ``scroll`` to ``w``; then ``w`` must be shown, inside the dock's viewport and
     inside the window."""
-    scroll.ensureWidgetVisible(w, 0, 0)
+    # scroll the whole widget into view (ensureWidgetVisible would only bring a line edit's
+    # text cursor into view)
+    c = w.mapTo(scroll.widget(), w.rect().center())
+    scroll.ensureVisible(c.x(), c.y(), w.width() // 2 + 1, w.height() // 2 + 1)
     if not w.isVisibleTo(win) or w.visibleRegion().isEmpty():
         return False
     top_left = w.mapTo(win, w.rect().topLeft())
@@ -38,6 +41,7 @@ def test_every_mesh_control_reachable_at_1024x700(main_window, qtbot):
     qtbot.waitUntil(lambda: win.width() == 1024 and win.height() == 700, timeout=3000)
     qtbot.wait(50)
     controls = [
+        win.method_combo,
         *win.option_widgets.values(),
         win.mesh_button,
         win.cancel_button,

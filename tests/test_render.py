@@ -38,6 +38,7 @@ def test_layer_names() -> None:
         "crosscuts",
         "conformal_images",
         "final_mesh",
+        "block_layout",
         "bad_quads",
     ]
     assert render.layer_names("disk") == ["tessellation", "region_w", "disk_mesh", "prevertices"]
@@ -124,7 +125,8 @@ def test_final_mesh_layer(result) -> None:
     geo = render.build_layer(result, "final_mesh")
     quads = geo.part("quads")
     assert quads.n_cells == result.mesh.quads.shape[0] == q.n_quads
-    assert quads.clim == pytest.approx((q.min_angle, q.max_angle))
+    # the colour range is [60°, 120°] (widened only by new angles outside it)
+    assert quads.clim == pytest.approx((min(q.min_angle, 60.0), max(q.max_angle, 120.0)))
     vals = np.asarray(quads.mesh.point_data["corner_angle"])
     assert vals.min() == pytest.approx(q.min_angle) and vals.max() == pytest.approx(q.max_angle)
     assert geo.scalar_bar_titles == [render.CORNER_TITLE]
