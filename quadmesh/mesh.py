@@ -622,8 +622,11 @@ class QuadMesh:
     ) -> QualityReport:
         exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
-        # angles within the fixed tolerance of 60°/120° belong to the bins inside the range
-        binned = np.where(np.abs(new - 60.0) <= angle_tol, 60.0, new)
+        # an angle within the fixed tolerance of a bin edge counts as on it (a right angle
+        # read 89.99999999999° is in the 90° bin with its neighbours), and 60°/120° belong to
+        # the bins inside the range
+        edge = np.round(new / 5.0) * 5.0
+        binned = np.where(np.abs(new - edge) <= angle_tol, edge, new)
         binned = np.where(np.abs(binned - 120.0) <= angle_tol, 120.0 - 1e-9, binned)
         hist, edges = np.histogram(binned, bins=36, range=(0.0, 180.0))
         bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
