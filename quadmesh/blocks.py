@@ -39,6 +39,7 @@ from scipy.sparse import coo_matrix
 
 from .cells import ANGLE_MAX, ANGLE_MIN, LayoutRefinement, cell_angles, refine_layout
 from .errors import QuadmeshError
+from .polygon import interior_angles
 from .progress import checkpoint
 
 __all__ = [
@@ -108,27 +109,23 @@ class BlockLayout:
         return len(self.cells)
 
 
+def _scale(z: NDArray[np.complex128]) -> float:
+    """The polygon's size "d": its bounding-box diagonal (as ``Polygon.diameter``, so that
+    ``--size 0.05d`` and the app's block size mean the same length)."""
+    return float(np.hypot(np.ptp(z.real), np.ptp(z.imag)))
+
+
 def default_block_size(z: ArrayLike) -> float:
-    """Default target edge length for block meshes: the polygon's diameter / 20."""
-    w = np.asarray(z, dtype=np.complex128)
-    d = float(np.max(np.abs(w[:, None] - w[None, :]))) if len(w) < 3000 else _diam_hull(w)
-    return d * DEFAULT_SIZE_RATIO
-
-
-def _diam_hull(w: NDArray[np.complex128]) -> float:
-    from scipy.spatial import ConvexHull
-
-    h = w[ConvexHull(np.column_stack([w.real, w.imag])).vertices]
-    return float(np.max(np.abs(h[:, None] - h[None, :])))
+    """Default target edge length for block meshes: d / 20, d the bounding-box diagonal."""
+    return _scale(np.asarray(z, dtype=np.complex128)) * DEFAULT_SIZE_RATIO
 
 
 # --------------------------------------------------------------------------- geometry
 
 
 def _angles_deg(z: NDArray[np.complex128]) -> NDArray[np.float64]:
-    e_in = z - np.roll(z, 1)
-    e_out = np.roll(z, -1) - z
-    return 180.0 - np.degrees(np.angle(e_out / e_in))
+    """Interior angles in degrees of the counter-clockwise polygon ``z``."""
+    return np.degrees(interior_angles(z))
 
 
 def _line_angle(d1: complex, d2: complex) -> float:
@@ -403,20 +400,23 @@ def _solve(
         k = len(bb)
         A_b = coo_matrix((np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, nr))
         cons.append(LinearConstraint(A_b, -np.inf, 1))
-    gap_t = 1e-9
-    for c, r in enumerate(rays):
-        if r.stop < 0:
-            continue
-        x_end = r.end
-        row = np.zeros(nr)
-        row[c] = 1.0
-        for c2, r2 in enumerate(rays):
-            if r2.base == r.stop:
-                # does this version of the ray reach past the T point?
-                along = ((x_end - r2.end) * np.conj(r2.d)).real
-                if along < -gap_t * max(r2.reach, 1.0):
-                    row[c2] = -1.0
-        cons.append(LinearConstraint(row[None, :], -np.inf, 0))
+    # a T-variant needs a chosen version of the ray it stops on that reaches past its end
+    tee = np.array([r.stop for r in rays])
+    base = np.array([r.base for r in rays])
+    ends = np.array([r.end for r in rays], dtype=np.complex128)
+    dirs = np.array([r.d for r in rays], dtype=np.complex128)
+    reach = np.array([r.reach for r in rays])
+    t_rows, t_cols, t_vals = [], [], []
+    for k, c in enumerate(np.nonzero(tee >= 0)[0]):
+        cand = np.nonzero(base == tee[c])[0]
+        along = ((ends[c] - ends[cand]) * np.conj(dirs[cand])).real  # < 0: reaches past it
+        past = cand[along < -1e-9 * reach[cand]]
+        t_rows += [k] * (1 + len(past))
+        t_cols += [int(c), *past.tolist()]
+        t_vals += [1.0] + [-1.0] * len(past)
+    if t_rows:
+        A_t = coo_matrix((t_vals, (t_rows, t_cols)), shape=(max(t_rows) + 1, nr))
+        cons.append(LinearConstraint(A_t, -np.inf, 0))
     for ng in nogoods:
         row = np.zeros(nr)
         row[ng] = 1
@@ -535,10 +535,6 @@ def _arrangement(
             faces.append(c)
             face_rays.append(fr)
     return P, faces, face_rays
-
-
-def _face_angles(P: NDArray[np.complex128], f: NDArray[np.int64]) -> NDArray[np.float64]:
-    return _angles_deg(P[f])
 
 
 # --------------------------------------------------------------------------- centre splits
@@ -763,7 +759,7 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
     z = np.asarray(polygon, dtype=np.complex128)
     n = len(z)
     theta = _angles_deg(z)
-    diam = float(np.max(np.abs(z[:, None] - z[None, :]))) if n < 3000 else _diam_hull(z)
+    diam = _scale(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
     slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]))))]
     if len(slots) > MAX_SLOTS:
@@ -834,7 +830,7 @@ def _search(
         faces = []
         wrong = []
         for fi, f in enumerate(faces_raw):
-            a = _face_angles(P, f)
+            a = _angles_deg(P[f])
             tee = np.abs(a - 180.0) < 1e-6  # the far side of a T: not a corner
             f, a = f[~tee], a[~tee]
             faces.append(f)

@@ -88,7 +88,8 @@ class MeshOptions:
             (:mod:`quadmesh.blocks`) — the same angle guarantee with far fewer quads. A polygon
             for which no block layout is found is meshed by the paper's construction instead
             (``MeshResult.fallback`` says why).
-        size: target edge length of ``method="blocks"`` (None: the polygon's diameter / 20).
+        size: target edge length of ``method="blocks"`` (None: d / 20, d the polygon's
+            bounding-box diagonal, ``Polygon.diameter``).
             Every chord of blocks gets ceil(its longest edge / size) segments; blocks holding
             a corner below 60° stay whole.
     """
