@@ -211,6 +211,8 @@ def _mesh_vertices(vertices: np.ndarray, options: MeshOptions | None) -> dict:
     else:
         out = {"status": "meshed", "quads": int(r.quality.n_quads)}
         out["min_angle"], out["max_angle"] = r.quality.min_angle, r.quality.max_angle
+        if r.options.method == "blocks":
+            out["blocks"] = r.blocks is not None  # False: fell back to the paper's construction
         out.update(_size_row(r.quality))
     out["time"] = time.perf_counter() - t0
     return out
@@ -414,7 +416,9 @@ def summarise_families(rows: list[dict]) -> list[dict]:
     generator's nominal ratio where defined, else area / width²), the median and min over
     the meshed polygons of the smallest mesh edge / local feature size (``edge_lfs_median``,
     ``edge_lfs_min``) and the largest share of edges below 1/1000 of it
-    (``below_floor_max``), and ``failures``: reason -> count (:func:`_reason`)."""
+    (``below_floor_max``), ``blocks_closed``: with ``method="blocks"`` the number of polygons
+    whose block layout closed (no fallback), else None, and ``failures``: reason -> count
+    (:func:`_reason`)."""
     from collections import Counter
 
     out = []
@@ -446,6 +450,11 @@ def summarise_families(rows: list[dict]) -> list[dict]:
                 "edge_lfs_median": float(np.median(lfs)) if lfs else None,
                 "edge_lfs_min": float(np.min(lfs)) if lfs else None,
                 "below_floor_max": float(np.max(below)) if below else None,
+                "blocks_closed": (
+                    sum(bool(r.get("blocks")) for r in ok)
+                    if any("blocks" in r for r in rs)
+                    else None
+                ),
                 "failures": dict(
                     Counter(_reason(r) for r in rs if r["status"] != "meshed").most_common()
                 ),
@@ -474,6 +483,9 @@ def format_family_table(summary: list[dict]) -> str:
         ("min edge/lfs med/min", 21),
         ("<1/1000 max", 11),
     ]
+    blocks = any(s.get("blocks_closed") is not None for s in summary)
+    if blocks:
+        cols.append(("blocks closed", 13))
     lines = [f"{'family':12s} " + " ".join(f"{c:>{w}}" for c, w in cols)]
     for s in summary:
         cells = [
@@ -488,6 +500,8 @@ def format_family_table(summary: list[dict]) -> str:
             pair(num(s["edge_lfs_median"], ".2g"), num(s["edge_lfs_min"], ".2g")),
             "-" if s["below_floor_max"] is None else f"{100 * s['below_floor_max']:.3g}%",
         ]
+        if blocks:
+            cells.append(pair(num(s.get("blocks_closed"), "d"), str(s["total"])))
         lines.append(
             f"{s['family']:12s} " + " ".join(f"{c:>{w}}" for c, (_, w) in zip(cells, cols))
         )
@@ -665,14 +679,16 @@ def quad_angle_stats(
     }
 
 
-def run_vs_gmsh(limit: int | None = None) -> list[dict] | None:
+def run_vs_gmsh(limit: int | None = None, method: str = "bishop") -> list[dict] | None:
     """Mesh the outlines of :func:`gmsh_polygons` with :func:`~quadmesh.pipeline.mesh_polygon`
     and with Gmsh (:func:`gmsh_quad_mesh`, element size diameter / 40), at most ``limit`` of
     them spread over the list, and print per polygon: n, both times and their ratio
     (quadmesh / Gmsh's ``generate(2)``), both quad counts, Gmsh's leftover triangles, Gmsh's
     share of quads with every new angle in [60°, 120°], and both meshes' extreme new angles;
-    then the median ratio. Returns the rows, or None (after a one-line message) when Gmsh is
-    not installed."""
+    then the median ratio. ``method="blocks"`` meshes with block layouts at Gmsh's element size
+    (a polygon whose layout does not close is marked ``fb``: it fell back to the paper's
+    construction). Returns the rows, or None (after a one-line message) when Gmsh is not
+    installed."""
     from .errors import QuadmeshError
     from .polygon import validate_polygon
 
@@ -698,15 +714,18 @@ def run_vs_gmsh(limit: int | None = None) -> list[dict] | None:
         st = quad_angle_stats(g["nodes"], g["quads"], g["triangles"], xy)
         row.update(gmsh_time=g["time"], gmsh_quads=st["quads"], gmsh_triangles=st["triangles"])
         row.update(gmsh_share_ok=st["share_ok"], gmsh_min=st["min"], gmsh_max=st["max"])
+        opts = MeshOptions()
+        if method == "blocks":
+            opts = MeshOptions(method="blocks", size=GMSH_SIZE_FRACTION * poly.diameter)
         t0 = time.perf_counter()
         try:
-            r = mesh_polygon(poly)
+            r = mesh_polygon(poly, opts)
         except QuadmeshError as exc:
             row.update(qm_time=time.perf_counter() - t0, qm_failed=f"{type(exc).__name__}")
         else:
             q = r.quality
             row.update(qm_time=time.perf_counter() - t0, qm_quads=q.n_quads)
-            row.update(qm_min=q.min_angle, qm_max=q.max_angle)
+            row.update(qm_min=q.min_angle, qm_max=q.max_angle, fell_back=bool(r.fallback))
             row["ratio"] = row["qm_time"] / row["gmsh_time"]
         rows.append(row)
         gmin = "-" if st["min"] is None else f"{st['min']:.1f}"
@@ -717,6 +736,8 @@ def run_vs_gmsh(limit: int | None = None) -> list[dict] | None:
             else f"{'-':>6} {row['qm_failed'][:9]:>9}"
         )
         qa = f"[{row['qm_min']:.1f}, {row['qm_max']:.1f}]" if "ratio" in row else "-"
+        if row.get("fell_back"):
+            qa += " fb"
         print(
             f"{name[:24]:24s} {poly.n:4d} {row['qm_time']:7.2f} {g['time']:7.3f} {qm} "
             f"{st['quads']:10d} {st['triangles']:5d} {100 * st['share_ok']:7.1f}% "
@@ -735,6 +756,12 @@ def run_vs_gmsh(limit: int | None = None) -> list[dict] | None:
             f"Gmsh quads with all new angles in [60°, 120°]: median {100 * np.median(share):.1f}% "
             f"(min {100 * min(share):.1f}%)"
         )
+        if method == "blocks":
+            closed = [r["ratio"] for r in rows if "ratio" in r and not r["fell_back"]]
+            print(
+                f"block layouts closed on {len(closed)} of {len(rows)} polygons"
+                + (f"; median time ratio on those: {np.median(closed):.1f}" if closed else "")
+            )
     return rows
 
 
@@ -778,11 +805,18 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="with --families: K per family; with --vs-gmsh: K polygons",
     )
+    ap.add_argument(
+        "--method",
+        choices=("bishop", "blocks"),
+        default="bishop",
+        help="with --families and --vs-gmsh: the meshing method (blocks: layouts of convex "
+        "blocks, falling back to the paper's construction)",
+    )
     ap.add_argument("--timeout", type=float, default=60.0, help="with --families: s per polygon")
     ap.add_argument("--workers", type=int, default=1, help="with --families: worker processes")
     args = ap.parse_args(argv)
     if args.vs_gmsh:
-        run_vs_gmsh(args.limit)
+        run_vs_gmsh(args.limit, args.method)
         return 0
     if args.families:
         from .families import FAMILIES
@@ -797,6 +831,7 @@ def main(argv: list[str] | None = None) -> int:
             limit=args.limit,
             timeout=args.timeout,
             workers=args.workers,
+            options=MeshOptions(method=args.method),
         )
         print(format_family_table(summary))
         return 0

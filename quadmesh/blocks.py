@@ -317,59 +317,107 @@ def _seg_cross(p1: complex, p2: complex, q1: complex, q2: complex) -> tuple[floa
     return None
 
 
-def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list[tuple[int, int]]:
-    """Pairs of rays that may not both be chosen."""
-    gap = POINT_GAP * diam
+def _pair_conflicts(z: NDArray[np.complex128], ra: _Ray, rb: _Ray, gap: float) -> bool:
+    """Whether rays ``ra`` and ``rb`` may not both be chosen (one pair; :func:`_conflicts`
+    decides every pair at once with the same rules)."""
     m = LAYOUT_MARGIN
-    e_out = np.roll(z, -1) - z
-    bad: list[tuple[int, int]] = []
+    if (ra.stop >= 0 and ra.stop == rb.base) or (rb.stop >= 0 and rb.stop == ra.base):
+        return False  # one ends on the other: the support rows of _solve decide
+    shared = ({ra.start, ra.join} - {-1}) & ({rb.start, rb.join} - {-1})
+    if shared:
+        if len(shared) == 2:
+            return True  # the same segment (a join seen from both ends)
+        v = shared.pop()
+        e = z[(v + 1) % len(z)] - z[v]
+        da = (ra.end - z[v]) if ra.start == v else (z[ra.start] - z[v])
+        db = (rb.end - z[v]) if rb.start == v else (z[rb.start] - z[v])
+        pa = math.degrees(math.atan2((da / e).imag, (da / e).real)) % 360
+        pb = math.degrees(math.atan2((db / e).imag, (db / e).real)) % 360
+        lo, hi = sorted((pa, pb))
+        return not ANGLE_MIN + m <= hi - lo <= ANGLE_MAX - m
+    pa_, qa, pb_, qb = z[ra.start], ra.end, z[rb.start], rb.end
+    if abs(qa - qb) < gap:
+        return True  # end points too close to each other
+    x = _seg_cross(pa_, qa, pb_, qb)
+    if x is None:  # nearly touching without crossing: a point of one close to the other
+        return _point_seg_dist(qa, pb_, qb) < gap or _point_seg_dist(qb, pa_, qa) < gap
+    s, t = x
+    la, lb = abs(qa - pa_), abs(qb - pb_)
+    if min(s * la, (1 - s) * la, t * lb, (1 - t) * lb) < gap:
+        return True
+    da, db = qa - pa_, qb - pb_
+    return abs((np.conj(da) * db).real) / (la * lb) > math.cos(math.radians(ANGLE_MIN + m))
+
+
+def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list[tuple[int, int]]:
+    """Pairs ``(a, b)``, a < b, of rays that may not both be chosen: they cross at an angle
+    outside [60.5°, 119.5°] or closer than the point gap to an end, end close together or one
+    ends close to the other, or they leave one corner with a part outside that range (the
+    rules of :func:`_pair_conflicts`; pairs sharing a corner are decided one by one, all others
+    at once in numpy, in blocks of rows)."""
+    gap = POINT_GAP * diam
     nr = len(rays)
-    P = np.array([z[r.start] for r in rays])
-    Q = np.array([r.end for r in rays])
-    for a in range(nr):
-        ra = rays[a]
+    if nr < 2:
+        return []
+    P = np.array([z[r.start] for r in rays], dtype=np.complex128)
+    Q = np.array([r.end for r in rays], dtype=np.complex128)
+    D = Q - P
+    L = np.abs(D)
+    start = np.array([r.start for r in rays])
+    join = np.array([r.join for r in rays])
+    base = np.array([r.base for r in rays])
+    stop = np.array([r.stop for r in rays])
+    cos_lo = math.cos(math.radians(ANGLE_MIN + LAYOUT_MARGIN))  # |cos| above: a bad angle
+    bad: list[tuple[int, int]] = []
+    cols = np.arange(nr)
+    for lo in range(0, nr, 256):
         checkpoint()
-        for b in range(a + 1, nr):
-            rb = rays[b]
-            if (ra.stop >= 0 and ra.stop == rb.base) or (rb.stop >= 0 and rb.stop == ra.base):
-                continue  # one ends on the other: the support rows of _solve decide
-            # the same slot twice is excluded by the equality rows; same join twice
-            ends_a = {ra.start, ra.join} - {-1}
-            ends_b = {rb.start, rb.join} - {-1}
-            shared = ends_a & ends_b
-            if shared:
-                if len(shared) == 2:
-                    bad.append((a, b))  # the same segment (a join seen from both ends)
-                    continue
-                v = shared.pop()
-                da = (ra.end - z[v]) if ra.start == v else (z[ra.start] - z[v])
-                db = (rb.end - z[v]) if rb.start == v else (z[rb.start] - z[v])
-                pa = math.degrees(math.atan2((da / e_out[v]).imag, (da / e_out[v]).real)) % 360
-                pb = math.degrees(math.atan2((db / e_out[v]).imag, (db / e_out[v]).real)) % 360
-                lo, hi = sorted((pa, pb))
-                if not ANGLE_MIN + m <= hi - lo <= ANGLE_MAX - m:
-                    bad.append((a, b))
-                continue
-            # end points too close to each other
-            if abs(Q[a] - Q[b]) < gap:
-                bad.append((a, b))
-                continue
-            x = _seg_cross(P[a], Q[a], P[b], Q[b])
-            if x is None:
-                # nearly touching without crossing: a point of one close to the other
-                if (
-                    _point_seg_dist(Q[a], P[b], Q[b]) < gap
-                    or _point_seg_dist(Q[b], P[a], Q[a]) < gap
-                ):
-                    bad.append((a, b))
-                continue
-            s, t = x
-            la, lb = abs(Q[a] - P[a]), abs(Q[b] - P[b])
-            if min(s * la, (1 - s) * la, t * lb, (1 - t) * lb) < gap:
-                bad.append((a, b))
-                continue
-            if _line_angle(ra.d, rb.d) < ANGLE_MIN + m:
-                bad.append((a, b))
+        a = np.arange(lo, min(lo + 256, nr))[:, None]
+        upper = cols[None, :] > a
+        tee = ((stop[a] >= 0) & (stop[a] == base[None, :])) | (
+            (stop[None, :] >= 0) & (stop[None, :] == base[a])
+        )
+        ja, jb = join[a], join[None, :]
+        sa, sb = start[a], start[None, :]
+        share = (
+            (sa == sb)
+            | ((jb >= 0) & (sa == jb))
+            | ((ja >= 0) & (ja == sb))
+            | ((ja >= 0) & (ja == jb))
+        )
+        Pa, Qa, Da, La = P[a], Q[a], D[a], L[a]
+        Pb, Qb, Db, Lb = P[None, :], Q[None, :], D[None, :], L[None, :]
+        close_ends = np.abs(Qa - Qb) < gap
+        den = (np.conj(Da) * Db).imag
+        w = Pb - Pa
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (np.conj(w) * Db).imag / den
+            t = (np.conj(w) * Da).imag / den
+        tol = 1e-12
+        cross = (
+            (np.abs(den) > 1e-14 * La * Lb)
+            & (s >= -tol)
+            & (s <= 1 + tol)
+            & (t >= -tol)
+            & (t <= 1 + tol)
+        )
+        near_x = (
+            np.minimum(np.minimum(s * La, (1 - s) * La), np.minimum(t * Lb, (1 - t) * Lb)) < gap
+        )
+        steep = np.abs((np.conj(Da) * Db).real) / np.maximum(La * Lb, 1e-300) > cos_lo
+        # distance of each end point from the other segment (no crossing)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ua = np.clip(((Qa - Pb) * np.conj(Db)).real / (Lb * Lb), 0.0, 1.0)
+            ub = np.clip(((Qb - Pa) * np.conj(Da)).real / (La * La), 0.0, 1.0)
+        touch = (np.abs(Qa - (Pb + ua * Db)) < gap) | (np.abs(Qb - (Pa + ub * Da)) < gap)
+        geo = close_ends | np.where(cross, near_x | steep, touch)
+        res = upper & ~tee & ~share & geo
+        for i, j in zip(*np.nonzero(res)):
+            bad.append((int(a[i, 0]), int(j)))
+        for i, j in zip(*np.nonzero(upper & ~tee & share)):
+            ai, bj = int(a[i, 0]), int(j)
+            if _pair_conflicts(z, rays[ai], rays[bj], gap):
+                bad.append((ai, bj))
     return bad
 
 

@@ -170,3 +170,54 @@ def test_right_angles_fill_one_histogram_bin() -> None:
     res = mesh_polygon(L_SHAPE, MeshOptions(method="blocks"))
     h = res.quality.histogram
     assert h[18] == h.sum() and h.sum() > 0
+
+
+def test_benchmark_reports_block_closure() -> None:
+    """bench --families --method blocks counts the polygons whose layout closed; a fallback
+    still counts as meshed."""
+    from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
+
+    ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
+    fb = _mesh_vertices(load_example("octagon"), MeshOptions(method="blocks"))
+    assert ok["status"] == fb["status"] == "meshed"
+    assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
+    base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
+    rows = [{**base, "name": "a", "n": 6, **ok}, {**base, "name": "b", "n": 8, **fb}]
+    (s,) = summarise_families(rows)
+    assert s["meshed"] == 2 and s["blocks_closed"] == 1
+    table = format_family_table([s])
+    assert "blocks closed" in table.splitlines()[0] and "1/2" in table.splitlines()[1]
+    # without method="blocks" there is no such column
+    plain = _mesh_vertices(L_SHAPE, None)
+    (s2,) = summarise_families([{**base, "name": "a", "n": 6, **plain}])
+    assert s2["blocks_closed"] is None
+    assert "blocks closed" not in format_family_table([s2])
+
+
+@pytest.mark.parametrize("name", ["comb", "octagon", "star_30"])
+def test_vectorised_conflicts_match_the_pair_rule(name: str) -> None:
+    """The all-pairs numpy test of conflicting cuts agrees with the one-pair rule on every pair
+    (full rays, joins and T-variants)."""
+    from quadmesh.blocks import (
+        POINT_GAP,
+        _angles_deg,
+        _candidates,
+        _conflicts,
+        _pair_conflicts,
+        _scale,
+        _t_variants,
+    )
+
+    z = _z(load_example(name))
+    d = _scale(z)
+    rays = _candidates(z, _angles_deg(z), d)
+    rays = rays + _t_variants(z, rays, d)
+    rays = rays[:: max(1, len(rays) // 300)]  # a spread of at most ~300 rays
+    got = set(_conflicts(z, rays, d))
+    want = {
+        (a, b)
+        for a in range(len(rays))
+        for b in range(a + 1, len(rays))
+        if _pair_conflicts(z, rays[a], rays[b], POINT_GAP * d)
+    }
+    assert got == want and len(want) > 0
