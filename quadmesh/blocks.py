@@ -29,6 +29,7 @@ Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are c
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from itertools import pairwise
 
@@ -66,6 +67,11 @@ ANGLE_TOL = 1e-7
 MAX_SLOTS = 120
 #: T-junction candidates are tried only while the full rays number at most this
 MAX_RAYS_FOR_TEES = 600
+#: a search with more conflicting pairs than this is given up at once (the integer program
+#: would take minutes to prove that no layout exists, and layouts that close have far fewer)
+MAX_CONFLICTS = 150_000
+#: wall-clock seconds the integer programs of one layout search may take in all
+SEARCH_SECONDS = 8.0
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -433,6 +439,7 @@ def _solve(
     slots: list[tuple[int, int]],
     bad: list[tuple[int, int]],
     nogoods: list[list[int]],
+    seconds: float = SEARCH_SECONDS,
 ) -> list[int] | None:
     nr = len(rays)
     sid = {s: k for k, s in enumerate(slots)}
@@ -475,7 +482,7 @@ def _solve(
         constraints=cons,
         integrality=np.ones(nr),
         bounds=Bounds(0, 1),
-        options={"time_limit": 20.0},
+        options={"time_limit": max(seconds, 0.1)},
     )
     if res.status != 0 or res.x is None:
         return None
@@ -863,9 +870,17 @@ def _search(
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     checkpoint()
+    if len(bad) > MAX_CONFLICTS:
+        problems.append(f"{len(bad):,} pairs of candidate cuts conflict")
+        return None
+    deadline = time.perf_counter() + SEARCH_SECONDS
     nogoods: list[list[int]] = []
     for rnd in range(1, MAX_ROUNDS + 1):
-        chosen = _solve(rays, slots, bad, nogoods) if slots else []
+        left = deadline - time.perf_counter()
+        if left <= 0:
+            problems.append(f"no layout within {SEARCH_SECONDS:g} s of search")
+            return None
+        chosen = _solve(rays, slots, bad, nogoods, left) if slots else []
         checkpoint()
         if chosen is None:
             return None
