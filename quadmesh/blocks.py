@@ -66,7 +66,7 @@ ANGLE_TOL = 1e-7
 #: pairwise search grows with the square of the candidates
 MAX_SLOTS = 120
 #: T-junction candidates are tried only while the full rays number at most this
-MAX_RAYS_FOR_TEES = 600
+MAX_RAYS_FOR_TEES = 1000
 #: a search with more conflicting pairs than this is given up at once (the integer program
 #: would take minutes to prove that no layout exists, and layouts that close have far fewer)
 MAX_CONFLICTS = 150_000
@@ -190,7 +190,17 @@ def _windows(theta: float) -> list[tuple[float, float]]:
     return [(max(lo, theta - 2 * hi), min(hi, theta - 2 * lo)), (theta - hi, theta - lo)]
 
 
-def _candidates(z: NDArray[np.complex128], theta: NDArray[np.float64], diam: float) -> list[_Ray]:
+def _candidates(
+    z: NDArray[np.complex128],
+    theta: NDArray[np.float64],
+    diam: float,
+    bare: list[_Ray] | None = None,
+) -> list[_Ray]:
+    """Candidate cuts of every corner above 120°: ``RAY_SAMPLES`` directions spread over each
+    cut's window, each running to the first boundary point it meets, kept when it meets the
+    boundary at an angle in [60.5°, 119.5°] away from corners; and joins to other such corners
+    in view whose own windows admit them.  Rays whose boundary end is unusable go to ``bare``
+    (when given): they can still serve shortened, ending on another cut (:func:`_t_variants`)."""
     n = len(z)
     gap = POINT_GAP * diam
     m = LAYOUT_MARGIN
@@ -242,12 +252,15 @@ def _candidates(z: NDArray[np.complex128], theta: NDArray[np.float64], diam: flo
                 continue
             t, j, u = hit
             ej = e_out[j]
-            if u * abs(ej) < gap or (1 - u) * abs(ej) < gap:
-                continue  # too close to a corner: only joins may end at corners
-            alpha = _line_angle(d, ej)
-            if alpha < ANGLE_MIN + m:
-                continue
             end = z[j] + u * ej
+            alpha = _line_angle(d, ej)
+            # too close to a corner (only joins may end at corners) or at a bad angle
+            if u * abs(ej) < gap or (1 - u) * abs(ej) < gap or alpha < ANGLE_MIN + m:
+                if bare is not None:
+                    bare.append(
+                        _Ray(i, d, end, -1, 0.0, -1, [(i, k)], 1.0 + 0.2 * t / diam, -1, -1, t)
+                    )
+                continue
             cost = 1.0 + 0.5 * (90.0 - alpha) / 30.0 + 0.2 * t / diam
             # prefer the middle of the window (room on both sides)
             a, b = wins[i][k]
@@ -261,18 +274,23 @@ def _candidates(z: NDArray[np.complex128], theta: NDArray[np.float64], diam: flo
 
 
 def _t_variants(
-    z: NDArray[np.complex128], rays: list[_Ray], diam: float, per_ray: int = 3
+    z: NDArray[np.complex128],
+    rays: list[_Ray],
+    diam: float,
+    per_ray: int = 3,
+    bare: list[_Ray] = (),
 ) -> list[_Ray]:
     """Shortened copies of the full rays that end on another full ray (a T-junction), at the
     first ``per_ray`` crossings where the two meet at an angle in [60°, 120°]; the far side
-    of the T is made conforming later by splitting cells along grid lines."""
+    of the T is made conforming later by splitting cells along grid lines.  Rays of ``bare``
+    (whose own boundary end is unusable) are shortened the same way."""
     gap = POINT_GAP * diam
     m = LAYOUT_MARGIN
     out: list[_Ray] = []
     full = [r for r in rays if r.join < 0]
-    for ra in full:
+    for ra in full + list(bare):
         hits = []
-        for rb in full:
+        for rb in rays:
             if rb.start == ra.start:
                 continue
             x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
@@ -823,10 +841,17 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
             f"120°); block layouts are searched for at most {MAX_SLOTS}. Fewer vertices on the "
             "round parts of the outline would help"
         )
-    rays = _candidates(z, theta, diam) if slots else []
+    bare: list[_Ray] = []
+    rays = _candidates(z, theta, diam, bare) if slots else []
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
+    tee_rays: list[_Ray] | None = None
+    if missing and len(rays) + len(bare) <= MAX_RAYS_FOR_TEES:
+        # corners whose every cut meets the boundary badly may still end a cut on another one
+        tee_rays = _t_variants(z, rays, diam, bare=bare)
+        covered |= {s for r in tee_rays for s in r.slots}
+        missing = [s for s in slots if s not in covered]
     if missing:
         vs = sorted({i for i, _ in missing})
         raise BlockLayoutError(
@@ -842,9 +867,13 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
     has_slot[[i for i, _ in slots]] = True
     problems: list[str] = []
     for tees in (False, True):
-        if tees and len(rays) > MAX_RAYS_FOR_TEES:
+        if not tees and tee_rays is not None:
+            continue  # some corner has no cut of its own: only T-junctions can serve it
+        if tees and len(rays) + len(bare) > MAX_RAYS_FOR_TEES:
             break
-        pool = rays + (_t_variants(z, rays, diam) if tees else [])
+        if tees and tee_rays is None:
+            tee_rays = _t_variants(z, rays, diam, bare=bare)
+        pool = rays + (tee_rays if tees else [])
         checkpoint()
         lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems)
         if lay is not None:
