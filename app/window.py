@@ -1512,10 +1512,11 @@ class MainWindow(QMainWindow):
         if lay is not None:
             size = getattr(r.options, "size", None)
             split = " (faces split at centres)" if lay.split else ""
+            ring = getattr(lay, "kind", "cuts") == "ring"
             rows += [
-                ("method", "blocks"),
+                ("method", "blocks (collar + lattice core)" if ring else "blocks"),
                 ("coarse cells", f"{lay.n_cells}{split}"),
-                ("cuts", f"{len(lay.cuts)}"),
+                ("spokes" if ring else "cuts", f"{len(lay.cuts)}"),
                 ("block size", "default (d/20)" if size is None else f"{size:.4g}"),
             ]
         else:

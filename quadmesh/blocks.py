@@ -96,6 +96,10 @@ class BlockLayout:
         split: True when the faces were split about centre points into the cells.
         rounds: search rounds used.
         tees: cuts that end on another cut (T-junctions made conforming by splitting cells).
+        angles: (C, 4) corner angles of the cells, degrees.
+        kind: ``"cuts"`` (straight cuts from the corners) or ``"ring"`` (a collar of quads
+            around a core on a triangular lattice, :mod:`quadmesh.rings`; ``cuts`` are then the
+            collar's spokes and ``faces`` is empty).
     """
 
     polygon: NDArray[np.complex128]
@@ -108,6 +112,7 @@ class BlockLayout:
     rounds: int = 1
     tees: int = 0
     angles: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4)))
+    kind: str = "cuts"
 
     @property
     def n_cells(self) -> int:
@@ -751,6 +756,9 @@ def _resolve_hanging(
     settle (a ring of cells whose parameters never close)."""
     pts = list(X)
     cl = [tuple(int(v) for v in c) for c in cells]
+    # only points that are new or were hanging in the last round can hang on a side: a split
+    # adds sides inside its cell, where no point lies
+    pending = np.arange(len(pts))
     for _ in range(max_rounds):
         P = np.asarray(pts, dtype=np.complex128)
         C = np.asarray(cl, dtype=np.int64)
@@ -758,26 +766,29 @@ def _resolve_hanging(
         b = P[C[:, [1, 2, 3, 0]]]
         d = b - a
         L2 = np.abs(d) ** 2
-        # parameter and distance of every point against every side (vectorised in chunks)
+        # parameter and distance of the pending points against every side (chunked numpy)
         found: dict[int, dict[int, list[tuple[float, int]]]] = {}
         flat_a, flat_d, flat_L2 = a.ravel(), d.ravel(), L2.ravel()
+        Pp = P[pending]
         for lo in range(0, len(flat_a), 512):
             sa, sd, sL = (
                 flat_a[lo : lo + 512, None],
                 flat_d[lo : lo + 512, None],
                 flat_L2[lo : lo + 512, None],
             )
-            w = P[None, :] - sa
+            w = Pp[None, :] - sa
             t = (w * np.conj(sd)).real / sL
             dist = np.abs((np.conj(sd) * w).imag) / np.sqrt(sL)
             hit = (t > 1e-9) & (t < 1 - 1e-9) & (dist <= 1e-9 * np.sqrt(sL))
             for si, pj in zip(*np.nonzero(hit)):
                 g = lo + int(si)
                 found.setdefault(g // 4, {}).setdefault(g % 4, []).append(
-                    (float(t[si, pj]), int(pj))
+                    (float(t[si, pj]), int(pending[pj]))
                 )
         if not found:
             return P, C
+        n_before = len(pts)
+        was_hanging = {j for sides in found.values() for lst in sides.values() for _, j in lst}
         new_cells: list[tuple[int, int, int, int]] = []
         for ci, c in enumerate(cl):
             if ci not in found:
@@ -809,6 +820,7 @@ def _resolve_hanging(
             for i in range(len(A) - 1):
                 new_cells.append((A[i], A[i + 1], B[i + 1], B[i]))
         cl = new_cells
+        pending = np.array(sorted(was_hanging | set(range(n_before, len(pts)))), dtype=np.int64)
     return None
 
 
@@ -989,10 +1001,21 @@ def mesh_blocks(
         ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices.
     """
     z = np.asarray(polygon, dtype=np.complex128)
-    lay = block_layout(z)
     h = default_block_size(z) if size is None else float(size)
     if not (h > 0 and math.isfinite(h)):
         raise ValueError(f"size must be a positive finite length, got {size!r}")
+    try:
+        lay = block_layout(z)
+    except BlockLayoutError as exc:
+        # no straight cuts close: a collar around a lattice core (round and dense outlines)
+        from .rings import RingLayoutError, ring_layout
+
+        try:
+            lay = ring_layout(z, h)
+        except RingLayoutError as ring_exc:
+            raise BlockLayoutError(
+                f"{exc.args[0]}; nor does a collar around a lattice core close ({ring_exc.args[0]})"
+            ) from exc
     # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
     # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
     # the caller with the strict fixed tolerance

@@ -246,8 +246,13 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     )
     if result.blocks is not None:
         lay = result.blocks
+        what = (
+            f"{len(lay.cuts)} spokes of a collar around a lattice core"
+            if lay.kind == "ring"
+            else f"{len(lay.cuts)} cuts, {len(lay.faces)} faces"
+        )
         print(
-            f"block layout: {len(lay.cuts)} cuts, {len(lay.faces)} faces, {lay.n_cells} blocks"
+            f"block layout: {what}, {lay.n_cells} blocks"
             + (f", {len(lay.tips)} corners below 60° kept whole" if len(lay.tips) else "")
         )
     if result.fallback:

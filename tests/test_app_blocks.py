@@ -205,13 +205,13 @@ def test_blocks_chosen_with_the_keyboard_mesh_layer_and_pick(main_window, qtbot)
 
 
 @pytest.mark.gui
-def test_octagon_falls_back_and_says_why(main_window, qtbot):
-    """Blocks chosen with the mouse on the octagon (eight 135° corners: no set of straight cuts
-    works): the run falls back to the paper's construction, the Mesh panel and the status bar
-    say why, and the paper's stages are drawn as usual."""
+def test_no_layout_falls_back_and_says_why(main_window, qtbot):
+    """Blocks chosen with the mouse on a right triangle with a 10° corner (no straight cuts and
+    no collar close around it): the run falls back to the paper's construction, the Mesh panel
+    and the status bar say why, and the paper's stages are drawn as usual."""
     require_pipeline()
     win = main_window
-    verts = _load_example(win, "octagon")
+    verts = _load_example(win, "right_triangle_10deg")
     combo = win.method_combo
     press(qtbot, combo)
     view = combo.view()

@@ -14,6 +14,7 @@ from quadmesh.blocks import BlockLayoutError, _resolve_hanging, block_layout, me
 from quadmesh.cells import cell_angles
 from quadmesh.cli import main as cli_main
 from quadmesh.examples import load_example
+from quadmesh.io import write_mesh
 from tests.test_strict import independent_check
 
 L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
@@ -114,12 +115,26 @@ def test_tip_block_stays_whole() -> None:
 
 
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
-    verts = load_example("octagon")  # eight 135° corners: every set of crossing cuts fails
+    verts = load_example("right_triangle_10deg")  # no straight cuts and no collar close
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
+    assert "collar" in res.fallback
+    assert res.pieces and res.verification.ok
+
+
+def test_octagon_closes_by_a_collar_around_a_lattice_core(tmp_path) -> None:
+    """Eight 135° corners: no set of straight cuts works, a collar of spokes around a core of
+    lattice kites does; the written mesh passes the independent check."""
+    verts = load_example("octagon")
     with pytest.raises(BlockLayoutError, match="straight cuts"):
         block_layout(_z(verts))
     res = mesh_polygon(verts, MeshOptions(method="blocks"))
-    assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
-    assert res.pieces and res.verification.ok
+    assert res.fallback is None and res.blocks.kind == "ring"
+    assert len(res.blocks.cuts) >= 8  # a spoke at every 135° corner at least
+    out = tmp_path / "octagon.json"
+    write_mesh(out, res.mesh)
+    got = independent_check(out, verts, angle_tol=1e-9)
+    assert got["n_quads"] == res.mesh.n_quads < 1500
 
 
 def test_options_validate_method_and_size() -> None:
@@ -178,7 +193,7 @@ def test_benchmark_reports_block_closure() -> None:
     from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
 
     ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
-    fb = _mesh_vertices(load_example("octagon"), MeshOptions(method="blocks"))
+    fb = _mesh_vertices(load_example("right_triangle_10deg"), MeshOptions(method="blocks"))
     assert ok["status"] == fb["status"] == "meshed"
     assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
     base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
