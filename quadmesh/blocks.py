@@ -747,19 +747,23 @@ def _resolve_hanging(
     cells: NDArray[np.int64],
     tip_mask: NDArray[np.bool_],
     max_rounds: int = 400,
+    deadline: float | None = None,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64]] | None:
     """Make a layout with hanging points conforming: a cell with points lying inside one of
     its sides is split along straight lines to the opposite side, at the same parameters (the
     pieces of a bilinear patch cut along its isolines keep their corners in the range of the
     cell's corners and their supplements), which carries the split on to the next cell until it
-    reaches the boundary.  None if a cell holding a tip would be split or the splits do not
-    settle (a ring of cells whose parameters never close)."""
+    reaches the boundary.  None if a cell holding a tip would be split, the splits do not
+    settle (a ring of cells whose parameters never close) or ``deadline`` (a
+    ``time.perf_counter()`` value) passes."""
     pts = list(X)
     cl = [tuple(int(v) for v in c) for c in cells]
     # only points that are new or were hanging in the last round can hang on a side: a split
     # adds sides inside its cell, where no point lies
     pending = np.arange(len(pts))
     for _ in range(max_rounds):
+        if deadline is not None and time.perf_counter() > deadline:
+            return None
         P = np.asarray(pts, dtype=np.complex128)
         C = np.asarray(cl, dtype=np.int64)
         a = P[C]  # (nc, 4)

@@ -88,7 +88,11 @@ class RingLayout:
 
 
 def _lattice_core(
-    z: NDArray[np.complex128], s: float, phi: float, shift: complex = 0j
+    z: NDArray[np.complex128],
+    s: float,
+    phi: float,
+    shift: complex = 0j,
+    fill_clearance: float | None = None,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64]]:
     """Lattice vertices and CCW triangles ``(T, 3)`` of the cleaned core: the largest
     edge-connected set of lattice triangles whose vertices lie inside the polygon at least
@@ -115,7 +119,8 @@ def _lattice_core(
         gi = np.nonzero(good)[0]
         dist = shapely.distance(ring, shapely.points(L.real[gi], L.imag[gi]))
         good[gi[dist < CLEARANCE * s]] = False
-        relaxed[gi[dist < FILL_CLEARANCE * s]] = False
+        fc = FILL_CLEARANCE if fill_clearance is None else fill_clearance
+        relaxed[gi[dist < fc * s]] = False
     idx = np.arange(ni * nj).reshape(ni, nj)
     # up triangles (i,j),(i+1,j),(i,j+1); down triangles (i+1,j),(i+1,j+1),(i,j+1)
     up = np.stack([idx[:-1, :-1], idx[1:, :-1], idx[:-1, 1:]], axis=-1).reshape(-1, 3)
@@ -125,22 +130,33 @@ def _lattice_core(
     fillable = relaxed[tri].all(axis=1)
     if not np.any(inside):
         raise RingLayoutError("no part of the polygon is wide enough for a core")
+    ever = inside.copy()
     for _ in range(10_000):
         sub, changed = _clean(tri[inside])
         if changed:
             inside = np.isin(_tri_key(tri, ni * nj), _tri_key(sub, ni * nj))
+            fillable &= ~(ever & ~inside)  # what cleaning removed is never filled again
             if not np.any(inside):
                 raise RingLayoutError("no part of the polygon is wide enough for a core")
             continue
-        # fill the notches: triangles at a 240° outline corner (a vertex with four core
-        # triangles) that keep the smaller clearance
+        # fill the notches: at a 240° outline corner (a vertex with four core triangles) both
+        # missing triangles together, when both keep the smaller clearance
         cnt = np.bincount(tri[inside].ravel(), minlength=ni * nj)
-        reflex = cnt == 4
-        add = ~inside & fillable & reflex[tri].any(axis=1)
+        out_at = np.zeros(ni * nj, dtype=np.int64)
+        cand = ~inside
+        np.add.at(out_at, tri[cand].ravel(), 1)
+        ok_at = np.zeros(ni * nj, dtype=np.int64)
+        np.add.at(ok_at, tri[cand & fillable].ravel(), 1)
+        notch = (cnt == 4) & (out_at == 2) & (ok_at == 2)
+        add = cand & fillable & notch[tri].any(axis=1)
         if not np.any(add):
             break
         inside |= add
+        ever |= add
     tri = tri[inside]
+    _, cnt = _edges(tri)
+    if np.any((cnt == 1).reshape(-1, 3).sum(axis=1) >= 2):
+        raise RingLayoutError("the polygon is too narrow for a core at this spacing")
     used, inv = np.unique(tri, return_inverse=True)
     return L[used], inv.reshape(-1, 3).astype(np.int64)
 
@@ -455,8 +471,10 @@ def _collar(
     for _, b0 in good[:8]:
         checkpoint()
         cells = _collar_from(Pside, Qside, partner, pmoves, qmoves, a0, b0, reach)
-        if cells is not None:
+        if isinstance(cells, list):
             return cells
+        if cells > len(Pside.pts) // 3:
+            break  # stuck far from the start: another first spoke gets stuck there too
     raise RingLayoutError("no ring of collar cells closes around the core")
 
 
@@ -484,8 +502,9 @@ def _collar_from(
     a0: int,
     b0: int,
     reach: float,
-) -> list[tuple[tuple[int, ...], tuple[int, ...]]] | None:
-    """Shortest path of collar cells from the spoke (a0, b0) once around back to it, or None.
+) -> list[tuple[tuple[int, ...], tuple[int, ...]]] | int:
+    """Shortest path of collar cells from the spoke (a0, b0) once around back to it; when
+    there is none, how far (in polygon-side points) the cells reached.
 
     States are spokes ``(a, b)`` with unwrapped chain indices; a cell joins a spoke to a later
     one.  ``partner[a, b]``: the spoke from polygon point a to core point b is within reach.
@@ -613,7 +632,7 @@ def _collar_from(
                 else:
                     rows.setdefault(nx[0], []).append(nx[1])
     if goal not in best:
-        return None
+        return max(k[0] for k in best) - a0
     cells = []
     st = goal
     while best[st][1] is not None:
@@ -626,7 +645,11 @@ def _collar_from(
 
 
 def ring_cells(
-    z: NDArray[np.complex128], spacing: float, phi: float | None = None, shift: complex = 0j
+    z: NDArray[np.complex128],
+    spacing: float,
+    phi: float | None = None,
+    shift: complex = 0j,
+    fill_clearance: float | None = None,
 ) -> RingLayout:
     """A ring layout of the counter-clockwise polygon ``z`` with a core of lattice spacing
     ``spacing`` (see the module docstring); the cells may still have hanging points.
@@ -641,7 +664,7 @@ def ring_cells(
         # lattice aligned with the longest polygon edge
         e = np.roll(z, -1) - z
         phi = float(np.angle(e[np.argmax(np.abs(e))]))
-    L, tri = _lattice_core(z, spacing, phi, shift)
+    L, tri = _lattice_core(z, spacing, phi, shift, fill_clearance)
     checkpoint()
     cyc = _outline(tri)
     kpts, kites, mid = _kites(L, tri)
@@ -749,8 +772,16 @@ def ring_cells(
 
 #: lattice spacings tried, as multiples of the target size
 SPACINGS = (2.0, 1.0, 0.5)
-#: lattice placements tried per spacing (rotation by 30° alternates; shifts are fixed)
-PLACEMENTS = (0j, 0.5 + 0.5j, 0.25 + 0.6j, 0.7 + 0.2j)
+#: lattice placements tried per spacing: (shift in lattice units, extra rotation in degrees,
+#: clearance kept by the triangles that fill notches of the core)
+PLACEMENTS = (
+    (0j, 0.0, 0.3),
+    (0.5 + 0.5j, 30.0, 0.3),
+    (0j, 0.0, 0.1),
+    (0.5 + 0.5j, 30.0, 0.1),
+    (0.25 + 0.6j, 0.0, 0.3),
+    (0.7 + 0.2j, 30.0, 0.1),
+)
 #: a ring layout search gives up after this many seconds
 RING_SECONDS = 10.0
 
@@ -779,20 +810,21 @@ def ring_layout(z: NDArray[np.complex128], size: float):
     deadline = time.perf_counter() + RING_SECONDS
     why = "no placement of the core was tried"
     for f in SPACINGS:
-        for k, shift in enumerate(PLACEMENTS):
+        for shift, turn, fill in PLACEMENTS:
             if time.perf_counter() > deadline:
                 raise RingLayoutError(f"no ring layout within {RING_SECONDS:g} s ({why})")
-            phi = phi0 + (k % 2) * math.pi / 6
             try:
-                lay = ring_cells(z, f * size, phi, shift)
+                lay = ring_cells(z, f * size, phi0 + math.radians(turn), shift, fill)
             except RingLayoutError as exc:
                 why = exc.args[0]
                 continue
             tip_mask = np.zeros(len(lay.points), dtype=bool)
             tip_mask[tips] = True
-            fixed = _resolve_hanging(lay.points, lay.cells, tip_mask)
+            fixed = _resolve_hanging(
+                lay.points, lay.cells, tip_mask, max_rounds=4000, deadline=deadline
+            )
             if fixed is None:
-                why = "the splits that make the collar conforming did not settle"
+                why = "the splits that make the collar conforming did not settle in time"
                 continue
             X, cells = fixed
             ang = cell_angles(X[cells])
