@@ -427,7 +427,7 @@ def _collar(
     ]
     qmoves = [
         np.asarray(m, dtype=np.int64).reshape(-1, 2)
-        for m in _moves(Qside, mid_kinds=(3,), stop_kinds=(1,), reach=64)
+        for m in _moves(Qside, mid_kinds=(3,), stop_kinds=(1,), reach=24)
     ]
     partner = np.zeros((NP, len(Q)), dtype=bool)
     for a, pa in enumerate(partners):
@@ -775,10 +775,10 @@ SPACINGS = (2.0, 1.0, 0.5)
 #: lattice placements tried per spacing: (shift in lattice units, extra rotation in degrees,
 #: clearance kept by the triangles that fill notches of the core)
 PLACEMENTS = (
-    (0j, 0.0, 0.3),
-    (0.5 + 0.5j, 30.0, 0.3),
     (0j, 0.0, 0.1),
     (0.5 + 0.5j, 30.0, 0.1),
+    (0j, 0.0, 0.3),
+    (0.5 + 0.5j, 30.0, 0.3),
     (0.25 + 0.6j, 0.0, 0.3),
     (0.7 + 0.2j, 30.0, 0.1),
 )

@@ -114,3 +114,19 @@ def test_random_round_outlines_mesh_or_say_why() -> None:
         own = lay.cells < len(z)
         assert np.all(ang[~own] >= 60.0 - 1e-7) and np.all(ang[~own] <= 120.0 + 1e-7)
     assert closed >= trials - 2
+
+
+def test_cli_reports_the_collar(tmp_path, capsys) -> None:
+    """`quadmesh mesh --method blocks` on the octagon says the layout is a collar, and the file
+    it writes passes the independent check."""
+    from quadmesh.cli import main as cli_main
+    from quadmesh.examples import example_path
+
+    out = tmp_path / "octagon.json"
+    assert (
+        cli_main(["mesh", str(example_path("octagon")), "-o", str(out), "--method", "blocks"]) == 0
+    )
+    text = capsys.readouterr().out
+    assert "spokes of a collar around a lattice core" in text and "note:" not in text
+    got = independent_check(out, load_example("octagon"), angle_tol=1e-9)
+    assert got["n_quads"] > 0
