@@ -425,10 +425,12 @@ def _collar(
         np.asarray(m, dtype=np.int64).reshape(-1, 2)
         for m in _moves(Pside, mid_kinds=(2,), stop_kinds=(1,), reach=4 * EDGE_SAMPLES)
     ]
-    qmoves = [
-        np.asarray(m, dtype=np.int64).reshape(-1, 2)
-        for m in _moves(Qside, mid_kinds=(3,), stop_kinds=(1,), reach=24)
-    ]
+    qmoves = _padded(
+        [
+            np.asarray(m, dtype=np.int64).reshape(-1, 2)
+            for m in _moves(Qside, mid_kinds=(3,), stop_kinds=(1,), reach=24)
+        ]
+    )
     partner = np.zeros((NP, len(Q)), dtype=bool)
     for a, pa in enumerate(partners):
         partner[a, pa] = True
@@ -493,12 +495,24 @@ def _cell_cost(corners: NDArray[np.complex128], mode: NDArray[np.int64]) -> NDAr
     return np.where(ok, 1.0 + dev, np.inf)
 
 
+def _padded(moves: list[NDArray[np.int64]]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Ragged per-point moves ``(k, 2)`` as padded ``(N, K)`` offsets and middles (offset 0:
+    no move)."""
+    K = max((len(m) for m in moves), default=0) or 1
+    off = np.zeros((len(moves), K), dtype=np.int64)
+    mid = np.zeros((len(moves), K), dtype=np.int64)
+    for i, m in enumerate(moves):
+        off[i, : len(m)] = m[:, 0]
+        mid[i, : len(m)] = m[:, 1]
+    return off, mid
+
+
 def _collar_from(
     Pside: _Side,
     Qside: _Side,
     partner: NDArray[np.bool_],
     pmoves: list[NDArray[np.int64]],
-    qmoves: list[NDArray[np.int64]],
+    qmoves: tuple[NDArray[np.int64], NDArray[np.int64]],
     a0: int,
     b0: int,
     reach: float,
@@ -507,130 +521,123 @@ def _collar_from(
     there is none, how far (in polygon-side points) the cells reached.
 
     States are spokes ``(a, b)`` with unwrapped chain indices; a cell joins a spoke to a later
-    one.  ``partner[a, b]``: the spoke from polygon point a to core point b is within reach.
-    Candidate cells of one spoke are built and scored together (numpy)."""
-    import heapq
-
+    one.  ``partner[a, b]``: the spoke from polygon point a to core point b is within reach;
+    ``qmoves``: the core side's moves padded by :func:`_padded`.  All spokes ending at one
+    polygon point are expanded together (numpy), in waves while cells around a reflex core
+    corner lead to spokes at the same polygon point."""
     P, Q = Pside.pts, Qside.pts
     NP, NQ = len(P), len(Q)
     spoke_ok = Pside.kind != 2
     qcorner = np.where(np.isin(Qside.kind, (1, 3)), 2, 0)
     new_q = NEW_POINT_COST * (Qside.ref < 0)
+    qoff_all, qmid_all = qmoves
     goal = (a0 + NP, b0 + NQ)
     best: dict[tuple[int, int], tuple[float, tuple[int, int] | None, tuple]] = {
         (a0, b0): (0.0, None, ())
     }
-    rows: dict[int, list[int]] = {a0: [b0]}
+    rows: dict[int, set[int]] = {a0: {b0}}
     for a in range(a0, goal[0] + 1):
-        heap = rows.pop(a, [])
-        heapq.heapify(heap)
-        done: set[int] = set()
-        while heap:
-            b = heapq.heappop(heap)
-            if b in done:
-                continue
-            done.add(b)
-            st = (a, b)
-            cost0 = best[st][0]
-            am, bm = a % NP, b % NQ
-            pm, qm = pmoves[am], qmoves[bm]
-            a2 = a + pm[:, 0]
-            okp = (a2 <= goal[0]) & spoke_ok[a2 % NP] & (np.abs(P[a2 % NP] - P[am]) <= 2 * reach)
-            pm, a2 = pm[okp], a2[okp]
-            b2 = b + qm[:, 0]
-            okq = b2 <= goal[1]
-            qm, b2 = qm[okq], b2[okq]
-            corners: list[NDArray[np.complex128]] = []
-            modes: list[NDArray[np.int64]] = []
-            nxt_a: list[NDArray[np.int64]] = []
-            nxt_b: list[NDArray[np.int64]] = []
-            kinds: list[NDArray[np.int64]] = []
-            mids: list[NDArray[np.int64]] = []
-            qb = qcorner[bm]
+        wave = rows.pop(a, set())
+        am = a % NP
+        pm = pmoves[am]
+        a2 = a + pm[:, 0]
+        okp = (a2 <= goal[0]) & spoke_ok[a2 % NP] & (np.abs(P[a2 % NP] - P[am]) <= 2 * reach)
+        pm, a2 = pm[okp], a2[okp]
+        sa = a2[pm[:, 1] == 0]
+        ma, mm = a2[pm[:, 1] > 0], a + pm[pm[:, 1] > 0, 1]
+        while wave:
+            bs = np.array(sorted(wave), dtype=np.int64)
+            wave = set()
+            c0 = np.array([best[(a, int(b))][0] for b in bs])
+            bm = bs % NQ
+            qo, qmd = qoff_all[bm], qmid_all[bm]  # (W, K)
+            b2 = bs[:, None] + qo
+            valid = (qo > 0) & (b2 <= goal[1])
+            W = len(bs)
+            src, tgt_a, tgt_b, kind, mid, corners, modes = [], [], [], [], [], [], []
             # (2, 2): a straight piece of each chain
-            sa, sb = a2[pm[:, 1] == 0], b2[qm[:, 1] == 0]
-            if len(sa) and len(sb):
-                A, B = np.meshgrid(sa, sb, indexing="ij")
-                A, B = A.ravel(), B.ravel()
-                keep = partner[A % NP, B % NQ]
-                A, B = A[keep], B[keep]
-                if len(A):
-                    k = len(A)
-                    corners.append(
-                        np.stack([np.full(k, P[am]), P[A % NP], Q[B % NQ], np.full(k, Q[bm])], 1)
-                    )
-                    modes.append(
-                        np.stack(
-                            [np.zeros(k, int), np.zeros(k, int), qcorner[B % NQ], np.full(k, qb)], 1
-                        )
-                    )
-                    nxt_a.append(A)
-                    nxt_b.append(B)
-                    kinds.append(np.zeros(k, int))
-                    mids.append(np.zeros(k, int))
+            if len(sa):
+                v = valid & (qmd == 0)
+                A = np.broadcast_to(sa[None, :, None], (W, len(sa), qo.shape[1]))
+                B = np.broadcast_to(b2[:, None, :], A.shape)
+                I = np.broadcast_to(np.arange(W)[:, None, None], A.shape)
+                ok = v[:, None, :] & partner[A % NP, B % NQ]
+                A, B, I = A[ok], B[ok], I[ok]
+                src.append(I)
+                tgt_a.append(A)
+                tgt_b.append(B)
+                kind.append(np.zeros(len(A), np.int64))
+                mid.append(np.zeros(len(A), np.int64))
+                corners.append(
+                    np.stack([np.full(len(A), P[am]), P[A % NP], Q[B % NQ], Q[bm[I]]], 1)
+                )
+                modes.append(np.stack([0 * A, 0 * A, qcorner[B % NQ], qcorner[bm[I]]], 1))
             # (3, 1): a polygon corner kept whole, the core side one point
-            sel = pm[:, 1] > 0
-            if np.any(sel):
-                A, M = a2[sel], a + pm[sel, 1]
-                keep = partner[A % NP, bm]
-                A, M = A[keep], M[keep]
-                if len(A):
-                    k = len(A)
-                    corners.append(
-                        np.stack([np.full(k, P[am]), P[M % NP], P[A % NP], np.full(k, Q[bm])], 1)
-                    )
-                    modes.append(
-                        np.stack(
-                            [np.zeros(k, int), np.ones(k, int), np.zeros(k, int), np.full(k, qb)], 1
-                        )
-                    )
-                    nxt_a.append(A)
-                    nxt_b.append(np.full(k, b))
-                    kinds.append(np.ones(k, int))
-                    mids.append(M)
+            if len(ma):
+                A = np.broadcast_to(ma[None, :], (W, len(ma)))
+                M = np.broadcast_to(mm[None, :], A.shape)
+                I = np.broadcast_to(np.arange(W)[:, None], A.shape)
+                ok = partner[A % NP, bm[I]]
+                A, M, I = A[ok], M[ok], I[ok]
+                src.append(I)
+                tgt_a.append(A)
+                tgt_b.append(bs[I])
+                kind.append(np.ones(len(A), np.int64))
+                mid.append(M)
+                corners.append(
+                    np.stack([np.full(len(A), P[am]), P[M % NP], P[A % NP], Q[bm[I]]], 1)
+                )
+                modes.append(np.stack([0 * A, 0 * A + 1, 0 * A, qcorner[bm[I]]], 1))
             # (1, 3): a reflex polygon corner with a second spoke, around a reflex core corner
             if Pside.kind[am] == 3:
-                sel = qm[:, 1] > 0
-                B, M = b2[sel], b + qm[sel, 1]
-                keep = partner[am, B % NQ]
-                B, M = B[keep], M[keep]
-                if len(B):
-                    k = len(B)
-                    corners.append(
-                        np.stack([np.full(k, P[am]), Q[B % NQ], Q[M % NQ], np.full(k, Q[bm])], 1)
-                    )
-                    modes.append(
-                        np.stack(
-                            [np.zeros(k, int), qcorner[B % NQ], np.full(k, 2), np.full(k, qb)], 1
-                        )
-                    )
-                    nxt_a.append(np.full(k, a))
-                    nxt_b.append(B)
-                    kinds.append(np.full(k, 2))
-                    mids.append(M)
-            if not corners:
+                ok = valid & (qmd > 0)
+                ok &= partner[am, b2 % NQ]
+                I = np.broadcast_to(np.arange(W)[:, None], ok.shape)[ok]
+                B, M = b2[ok], bs[I] + qmd[ok]
+                src.append(I)
+                tgt_a.append(np.full(len(B), a))
+                tgt_b.append(B)
+                kind.append(np.full(len(B), 2))
+                mid.append(M)
+                corners.append(
+                    np.stack([np.full(len(B), P[am]), Q[B % NQ], Q[M % NQ], Q[bm[I]]], 1)
+                )
+                modes.append(np.stack([0 * B, qcorner[B % NQ], 0 * B + 2, qcorner[bm[I]]], 1))
+            if not src:
                 continue
+            I = np.concatenate(src)
+            if len(I) == 0:
+                continue
+            TA, TB = np.concatenate(tgt_a), np.concatenate(tgt_b)
+            KD, MD = np.concatenate(kind), np.concatenate(mid)
             cost = _cell_cost(np.concatenate(corners), np.concatenate(modes))
-            NA, NB = np.concatenate(nxt_a), np.concatenate(nxt_b)
-            KD, MD = np.concatenate(kinds), np.concatenate(mids)
-            tot = cost0 + cost + new_q[NB % NQ]
-            for i in np.nonzero(np.isfinite(tot))[0].tolist():
-                nx = (int(NA[i]), int(NB[i]))
-                t = float(tot[i])
+            tot = c0[I] + cost + new_q[TB % NQ]
+            fin = np.isfinite(tot)
+            if not np.any(fin):
+                continue
+            I, TA, TB, KD, MD, tot = I[fin], TA[fin], TB[fin], KD[fin], MD[fin], tot[fin]
+            # the cheapest candidate per target spoke
+            order = np.lexsort((tot, TB, TA))
+            keep = np.ones(len(order), dtype=bool)
+            keep[1:] = (TA[order][1:] != TA[order][:-1]) | (TB[order][1:] != TB[order][:-1])
+            for k in order[keep].tolist():
+                nx = (int(TA[k]), int(TB[k]))
+                t = float(tot[k])
                 if nx in best and best[nx][0] <= t:
                     continue
-                kd, md = int(KD[i]), int(MD[i])
+                b = int(bs[I[k]])
+                kd, md = int(KD[k]), int(MD[k])
                 if kd == 0:
                     sides = ((a, nx[0]), (b, nx[1]))
                 elif kd == 1:
                     sides = ((a, md, nx[0]), (b,))
                 else:
                     sides = ((a,), (b, md, nx[1]))
-                best[nx] = (t, st, sides)
+                best[nx] = (t, (a, b), sides)
                 if nx[0] == a:
-                    heapq.heappush(heap, nx[1])
+                    wave.add(nx[1])
                 else:
-                    rows.setdefault(nx[0], []).append(nx[1])
+                    rows.setdefault(nx[0], set()).add(nx[1])
     if goal not in best:
         return max(k[0] for k in best) - a0
     cells = []
