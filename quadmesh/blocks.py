@@ -71,7 +71,7 @@ MAX_RAYS_FOR_TEES = 1000
 #: would take minutes to prove that no layout exists, and layouts that close have far fewer)
 MAX_CONFLICTS = 150_000
 #: wall-clock seconds the integer programs of one layout search may take in all
-SEARCH_SECONDS = 8.0
+SEARCH_SECONDS = 3.0
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -731,15 +731,32 @@ def _split_cells(
     return X, Q, sorted(set(cell_face_a[still].tolist()))
 
 
-def _add_point(pts: list[complex], w: complex) -> int:
-    """Index of ``w`` in ``pts``, appended unless a point within rounding of it is there."""
-    P = np.asarray(pts)
-    scale = max(float(np.max(np.abs(P - P[0]))), 1e-300)
-    k = int(np.argmin(np.abs(P - w)))
-    if abs(P[k] - w) <= 1e-12 * scale:
-        return k
-    pts.append(w)
-    return len(pts) - 1
+class _PointIndex:
+    """Points of a growing list, found again by their position up to rounding (a hash on a
+    grid of cells 1e-12 of the list's extent wide, the cell and its neighbours searched)."""
+
+    def __init__(self, pts: list[complex]) -> None:
+        P = np.asarray(pts)
+        self.pts = pts
+        self.tol = 1e-12 * max(float(np.max(np.abs(P - P[0]))), 1e-300)
+        self.cells: dict[tuple[int, int], list[int]] = {}
+        for i, w in enumerate(pts):
+            self.cells.setdefault(self._key(w), []).append(i)
+
+    def _key(self, w: complex) -> tuple[int, int]:
+        return (math.floor(w.real / self.tol), math.floor(w.imag / self.tol))
+
+    def add(self, w: complex) -> int:
+        """Index of ``w``: an existing point within rounding, else ``w`` appended."""
+        kx, ky = self._key(w)
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for i in self.cells.get((kx + dx, ky + dy), ()):
+                    if abs(self.pts[i] - w) <= self.tol:
+                        return i
+        self.pts.append(w)
+        self.cells.setdefault((kx, ky), []).append(len(self.pts) - 1)
+        return len(self.pts) - 1
 
 
 def _resolve_hanging(
@@ -757,6 +774,7 @@ def _resolve_hanging(
     settle (a ring of cells whose parameters never close) or ``deadline`` (a
     ``time.perf_counter()`` value) passes."""
     pts = list(X)
+    grid = _PointIndex(pts)
     cl = [tuple(int(v) for v in c) for c in cells]
     # only points that are new or were hanging in the last round can hang on a side: a split
     # adds sides inside its cell, where no point lies
@@ -774,11 +792,33 @@ def _resolve_hanging(
         found: dict[int, dict[int, list[tuple[float, int]]]] = {}
         flat_a, flat_d, flat_L2 = a.ravel(), d.ravel(), L2.ravel()
         Pp = P[pending]
-        for lo in range(0, len(flat_a), 512):
+        step = max(512, 2_000_000 // max(len(Pp), 1))
+        brute = len(Pp) * len(flat_a) <= 20_000_000
+        if not brute:
+            # many points: only those near a side are tested against it (a k-d tree)
+            from scipy.spatial import cKDTree
+
+            tree = cKDTree(np.column_stack([Pp.real, Pp.imag]))
+            mid = flat_a + 0.5 * flat_d
+            near = tree.query_ball_point(
+                np.column_stack([mid.real, mid.imag]), 0.5 * np.sqrt(flat_L2) * (1 + 1e-9)
+            )
+            for g, cand in enumerate(near):
+                if not cand:
+                    continue
+                w = Pp[cand] - flat_a[g]
+                t = (w * np.conj(flat_d[g])).real / flat_L2[g]
+                dist = np.abs((np.conj(flat_d[g]) * w).imag) / np.sqrt(flat_L2[g])
+                hit = (t > 1e-9) & (t < 1 - 1e-9) & (dist <= 1e-9 * np.sqrt(flat_L2[g]))
+                for k in np.nonzero(hit)[0]:
+                    found.setdefault(g // 4, {}).setdefault(g % 4, []).append(
+                        (float(t[k]), int(pending[cand[k]]))
+                    )
+        for lo in range(0, len(flat_a) if brute else 0, step):
             sa, sd, sL = (
-                flat_a[lo : lo + 512, None],
-                flat_d[lo : lo + 512, None],
-                flat_L2[lo : lo + 512, None],
+                flat_a[lo : lo + step, None],
+                flat_d[lo : lo + step, None],
+                flat_L2[lo : lo + step, None],
             )
             w = Pp[None, :] - sa
             t = (w * np.conj(sd)).real / sL
@@ -793,11 +833,9 @@ def _resolve_hanging(
             return P, C
         n_before = len(pts)
         was_hanging = {j for sides in found.values() for lst in sides.values() for _, j in lst}
-        new_cells: list[tuple[int, int, int, int]] = []
-        for ci, c in enumerate(cl):
-            if ci not in found:
-                new_cells.append(c)
-                continue
+        added: list[tuple[int, int, int, int]] = []
+        for ci in sorted(found):
+            c = cl[ci]
             if any(v < len(tip_mask) and tip_mask[v] for v in c):
                 return None
             k = min(found[ci])  # split across side k (and its opposite side)
@@ -813,17 +851,18 @@ def _resolve_hanging(
                 key = round(t, 12)
                 ja = on_k.get(key)
                 if ja is None:
-                    ja = _add_point(pts, pts[q[0]] + t * (pts[q[1]] - pts[q[0]]))
+                    ja = grid.add(pts[q[0]] + t * (pts[q[1]] - pts[q[0]]))
                 jb = on_o.get(key)
                 if jb is None:
-                    jb = _add_point(pts, pts[q[3]] + t * (pts[q[2]] - pts[q[3]]))
+                    jb = grid.add(pts[q[3]] + t * (pts[q[2]] - pts[q[3]]))
                 A.append(ja)
                 B.append(jb)
             A.append(q[1])
             B.append(q[2])
             for i in range(len(A) - 1):
-                new_cells.append((A[i], A[i + 1], B[i + 1], B[i]))
-        cl = new_cells
+                added.append((A[i], A[i + 1], B[i + 1], B[i]))
+        split = set(found)
+        cl = [c for ci, c in enumerate(cl) if ci not in split] + added
         pending = np.array(sorted(was_hanging | set(range(n_before, len(pts)))), dtype=np.int64)
     return None
 
