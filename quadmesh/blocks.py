@@ -70,6 +70,8 @@ MAX_RAYS_FOR_TEES = 1000
 #: a search with more conflicting pairs than this is given up at once (the integer program
 #: would take minutes to prove that no layout exists, and layouts that close have far fewer)
 MAX_CONFLICTS = 150_000
+#: hanging points are tested against all sides while points × sides stay below this
+BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
 SEARCH_SECONDS = 3.0
 #: default target edge length, as a fraction of the polygon's diameter
@@ -793,7 +795,7 @@ def _resolve_hanging(
         flat_a, flat_d, flat_L2 = a.ravel(), d.ravel(), L2.ravel()
         Pp = P[pending]
         step = max(512, 2_000_000 // max(len(Pp), 1))
-        brute = len(Pp) * len(flat_a) <= 20_000_000
+        brute = len(Pp) * len(flat_a) <= BRUTE_PAIRS
         if not brute:
             # many points: only those near a side are tested against it (a k-d tree)
             from scipy.spatial import cKDTree

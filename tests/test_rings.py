@@ -130,3 +130,29 @@ def test_cli_reports_the_collar(tmp_path, capsys) -> None:
     assert "spokes of a collar around a lattice core" in text and "note:" not in text
     got = independent_check(out, load_example("octagon"), angle_tol=1e-9)
     assert got["n_quads"] > 0
+
+
+def test_hanging_points_found_the_same_with_and_without_the_tree(monkeypatch) -> None:
+    """The first round of hanging-point resolution tests every point near every side; with a
+    k-d tree of the points (large layouts) it finds the same points as the full test, and the
+    result is conforming (every edge in at most two cells, opposite sides paired)."""
+    import quadmesh.blocks as blocks
+    from quadmesh.cells import layout_chords
+
+    z = _z("regular_64")
+    lay = ring_cells(z, 2 * default_block_size(z))
+    tips = np.zeros(len(lay.points), dtype=bool)
+    monkeypatch.setattr(blocks, "BRUTE_PAIRS", 10**12)
+    X1, C1 = blocks._resolve_hanging(lay.points, lay.cells, tips, max_rounds=4000)
+    monkeypatch.setattr(blocks, "BRUTE_PAIRS", 0)
+    X2, C2 = blocks._resolve_hanging(lay.points, lay.cells, tips, max_rounds=4000)
+    assert len(C1) == len(C2) > len(lay.cells)
+    assert np.allclose(np.sort_complex(X1), np.sort_complex(X2))
+    layout_chords(C2)  # raises on a non-conforming layout
+    assert abs(np.sum(_areas(X2[C2])) - _areas(z[None, :])[0]) < 1e-9
+
+
+def _areas(w: np.ndarray) -> np.ndarray:
+    return 0.5 * np.sum(
+        w.real * np.roll(w.imag, -1, axis=1) - np.roll(w.real, -1, axis=1) * w.imag, axis=1
+    )
