@@ -208,6 +208,17 @@ def _clean(tri: NDArray[np.int64]) -> tuple[NDArray[np.int64], bool]:
     pinch = starts[k > 1]
     if len(pinch):
         return tri[~_smaller_fan(tri, int(pinch[0]))], True
+    # 300° outline corners (five core triangles at an outline vertex) leave the collar a
+    # single 60° gap: drop the triangles on an outline edge through such a vertex
+    at = np.bincount(tri.ravel())
+    sharp = np.zeros(len(at), dtype=bool)
+    sharp[out[:, 0]] = at[out[:, 0]] == 5
+    if np.any(sharp):
+        edge_at = np.zeros(T, dtype=bool)
+        oe = (cnt == 1).reshape(T, 3)
+        for j in range(3):
+            edge_at |= oe[:, j] & (sharp[tri[:, j]] | sharp[tri[:, (j + 1) % 3]])
+        return tri[~edge_at], True
     return tri, False
 
 
@@ -469,14 +480,18 @@ def _collar(
     if not scored:
         raise RingLayoutError("no spoke meets both the polygon and the core at a good angle")
     scored.sort(key=lambda t: t[0])
-    _, a0, good = scored[0]
-    for _, b0 in good[:8]:
-        checkpoint()
-        cells = _collar_from(Pside, Qside, partner, pmoves, qmoves, a0, b0, reach)
-        if isinstance(cells, list):
-            return cells
-        if cells > len(Pside.pts) // 3:
-            break  # stuck far from the start: another first spoke gets stuck there too
+    for _, a0, good in scored[:3]:
+        far = False
+        for _, b0 in good[:6]:
+            checkpoint()
+            cells = _collar_from(Pside, Qside, partner, pmoves, qmoves, a0, b0, reach)
+            if isinstance(cells, list):
+                return cells
+            if cells > len(Pside.pts) // 3:
+                far = True  # stuck far from the start: other first spokes get stuck there too
+                break
+        if far:
+            break
     raise RingLayoutError("no ring of collar cells closes around the core")
 
 
