@@ -55,6 +55,8 @@ MAX_PARTNERS = 40
 #: extra cost of a spoke ending on the core between lattice points (its split runs through
 #: the core)
 NEW_POINT_COST = 3.0
+#: weight of the cost of thin collar cells (by the log of their side-length ratio above 4)
+THIN_COST = 4.0
 #: tolerance (degrees) for the polygon's own corners kept whole
 OWN_TOL = 1e-7
 
@@ -507,7 +509,11 @@ def _cell_cost(corners: NDArray[np.complex128], mode: NDArray[np.int64]) -> NDAr
     own_ok = (ang > 0) & (ang < 180)
     ok = np.where(mode == 1, own_ok, new_ok).all(axis=1)
     dev = np.where(mode == 0, ((ang - 90.0) / 30.0) ** 2, 0.0).sum(axis=1)
-    return np.where(ok, 1.0 + dev, np.inf)
+    # thin cells (a side much shorter than another) cost more: they make thin quads
+    side = np.abs(np.roll(corners, -1, axis=1) - corners)
+    aspect = side.max(axis=1) / np.maximum(side.min(axis=1), 1e-300)
+    thin = THIN_COST * np.maximum(np.log(aspect / 4.0), 0.0) ** 2
+    return np.where(ok, 1.0 + dev + thin, np.inf)
 
 
 def _padded(moves: list[NDArray[np.int64]]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
