@@ -62,7 +62,9 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
     layout = getattr(result, "blocks", None)
     if "block_layout" in visible and layout is not None:
         if len(layout.cuts):
-            out.append(("block_layout", "cut", BLOCK_COLORS["cuts"]))
+            ring = getattr(layout, "kind", "cuts") == "ring"
+            label = "spoke (collar around a lattice core)" if ring else "cut"
+            out.append(("block_layout", label, BLOCK_COLORS["cuts"]))
         if len(block_layout_edges(layout)[0]):
             out.append(("block_layout", "coarse cell edge", BLOCK_COLORS["cell edges"]))
     if getattr(result, "decomposition", None) is None:

@@ -246,3 +246,34 @@ def test_no_layout_falls_back_and_says_why(main_window, qtbot):
     # an edit drops the result and its note
     win.set_polygon(L_SHAPE)
     assert win.result is None and not win.note_label.isVisible()
+
+
+@pytest.mark.gui
+def test_octagon_blocks_by_a_collar_show_spokes(main_window, qtbot):
+    """Blocks chosen with the mouse on the octagon (no straight cuts close there): the layout
+    is a collar around a lattice core, the legend calls its lines spokes and the information
+    panel names the collar; the mesh is verified."""
+    require_pipeline()
+    win = main_window
+    verts = _load_example(win, "octagon")
+    combo = win.method_combo
+    press(qtbot, combo)
+    view = combo.view()
+    qtbot.waitUntil(view.isVisible)
+    qtbot.wait(400)  # a popup ignores a release that comes right after it opened
+    idx = combo.model().index(combo.findData("blocks"), 0)
+    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualRect(idx).center())
+    qtbot.waitUntil(lambda: combo.currentData() == "blocks")
+    _mesh_by_click(win, qtbot)
+
+    r = win.result
+    assert r.fallback is None and r.blocks.kind == "ring"
+    assert r.verification.ok
+    assert_angles_ok(r.mesh, r.quality)
+    want = mesh_polygon(
+        verts, MeshOptions(method="blocks", size=0.05 * validate_polygon(verts).diameter)
+    )
+    assert want.mesh.n_quads == r.mesh.n_quads
+    assert win.legend.labels("block_layout")[0] == "spoke (collar around a lattice core)"
+    assert "collar" in win.info_label.text()
+    assert win.plane.layer_actors("block_layout")
