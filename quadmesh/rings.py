@@ -19,6 +19,14 @@ Points on a cell's side that are corners of neighbouring cells (core points the 
 use, spoke ends on the core) are made conforming by splitting cells along their bilinear
 isolines (:func:`quadmesh.blocks._resolve_hanging`).  The result feeds
 :func:`quadmesh.cells.refine_layout` like any block layout.
+
+:func:`ring_layout` tries lattice spacings of 2, 1 and 1/2 times the target size at a few
+placements (shift, rotation, notch-fill clearance) and accepts the first layout whose cells are
+counter-clockwise, have every new corner in range and cover exactly the polygon's area.  Where
+it fails (measured): convex corners up to 120° whose edges are much shorter than the collar is
+wide (no core point within reach of the corner cell), staircases of the core facing convex
+stretches of the outline, and outlines with hundreds of vertices or bays narrower than the
+collar.
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -35,6 +44,9 @@ from .cells import ANGLE_MAX, ANGLE_MIN, cell_angles
 from .errors import QuadmeshError
 from .polygon import interior_angles
 from .progress import checkpoint
+
+if TYPE_CHECKING:
+    from .blocks import BlockLayout
 
 __all__ = ["RingLayout", "RingLayoutError", "ring_cells", "ring_layout"]
 
@@ -387,7 +399,9 @@ def _ray_hits(
     return out
 
 
-def _moves(side: _Side, mid_kinds: tuple[int, ...], stop_kinds: tuple[int, ...], reach: int):
+def _moves(
+    side: _Side, mid_kinds: tuple[int, ...], stop_kinds: tuple[int, ...], reach: int
+) -> list[list[tuple[int, int]]]:
     """For every point a of a closed chain, the moves to a later point a' (unwrapped index
     offset) along one straight piece, optionally passing one corner that becomes the cell's
     middle corner: a list per a of ``(offset, middle offset or 0)``."""
@@ -413,8 +427,6 @@ def _moves(side: _Side, mid_kinds: tuple[int, ...], stop_kinds: tuple[int, ...],
 
 
 def _collar(
-    z: NDArray[np.complex128],
-    theta: NDArray[np.float64],
     Pside: _Side,
     Qside: _Side,
     s: float,
@@ -755,7 +767,7 @@ def ring_cells(
     # lattice midpoints are optional points that already exist
     Qside.seg[(Qside.kind == 0) & (Qside.ref >= 0)] = -2
     Pside = _chain(z, pk, np.arange(n), ppar)
-    cells_ix = _collar(z, theta, Pside, Qside, spacing)
+    cells_ix = _collar(Pside, Qside, spacing)
     # assemble: layout points = polygon vertices, kite points, new side points
     pts: list[complex] = list(z) + list(kpts)
     off = n
@@ -814,7 +826,7 @@ PLACEMENTS = (
 RING_SECONDS = 10.0
 
 
-def ring_layout(z: NDArray[np.complex128], size: float):
+def ring_layout(z: NDArray[np.complex128], size: float) -> BlockLayout:
     """A block layout of the counter-clockwise polygon ``z`` made of a collar and a lattice
     core (see the module docstring), conforming, with every new corner in [60°, 120°].
 
