@@ -107,6 +107,18 @@ def _load_example(win, name: str) -> np.ndarray:
     return verts
 
 
+def _choose_blocks_by_mouse(win, qtbot) -> None:
+    """Open the Method combo with the mouse and click "Blocks" in its popup."""
+    combo = win.method_combo
+    press(qtbot, combo)
+    view = combo.view()
+    qtbot.waitUntil(view.isVisible)
+    qtbot.wait(400)  # a popup ignores a release that comes right after it opened
+    idx = combo.model().index(combo.findData("blocks"), 0)
+    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualRect(idx).center())
+    qtbot.waitUntil(lambda: combo.currentData() == "blocks")
+
+
 def _mesh_by_click(win, qtbot) -> None:
     with qtbot.waitSignal(win.runner.idle, timeout=120000):
         press(qtbot, win.mesh_button)
@@ -212,14 +224,7 @@ def test_no_layout_falls_back_and_says_why(main_window, qtbot):
     require_pipeline()
     win = main_window
     verts = _load_example(win, "right_triangle_10deg")
-    combo = win.method_combo
-    press(qtbot, combo)
-    view = combo.view()
-    qtbot.waitUntil(view.isVisible)
-    qtbot.wait(400)  # a popup ignores a release that comes right after it opened
-    idx = combo.model().index(combo.findData("blocks"), 0)
-    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualRect(idx).center())
-    qtbot.waitUntil(lambda: combo.currentData() == "blocks")
+    _choose_blocks_by_mouse(win, qtbot)
     assert win.block_size_spin.isEnabled()
     _mesh_by_click(win, qtbot)
 
@@ -256,14 +261,7 @@ def test_octagon_blocks_by_a_collar_show_spokes(main_window, qtbot):
     require_pipeline()
     win = main_window
     verts = _load_example(win, "octagon")
-    combo = win.method_combo
-    press(qtbot, combo)
-    view = combo.view()
-    qtbot.waitUntil(view.isVisible)
-    qtbot.wait(400)  # a popup ignores a release that comes right after it opened
-    idx = combo.model().index(combo.findData("blocks"), 0)
-    qtbot.mouseClick(view.viewport(), Qt.MouseButton.LeftButton, pos=view.visualRect(idx).center())
-    qtbot.waitUntil(lambda: combo.currentData() == "blocks")
+    _choose_blocks_by_mouse(win, qtbot)
     _mesh_by_click(win, qtbot)
 
     r = win.result
