@@ -42,7 +42,8 @@ from numpy.typing import NDArray
 
 from .cells import ANGLE_MAX, ANGLE_MIN, cell_angles
 from .errors import QuadmeshError
-from .polygon import interior_angles
+from .geometry import quad_signed_areas
+from .polygon import interior_angles, signed_area
 from .progress import checkpoint
 
 if TYPE_CHECKING:
@@ -353,23 +354,25 @@ def _chain(
 
 
 def _nearest_on_chain(
-    corners: NDArray[np.complex128], pts: NDArray[np.complex128], reach: float
-) -> list[tuple[int, float]]:
-    """For every point of ``pts`` within ``reach`` of the closed chain ``corners``, the piece
-    ``k`` (from corner k to k+1) holding its nearest point and the parameter on that piece."""
+    corners: NDArray[np.complex128], pts: NDArray[np.complex128]
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """For every point of ``pts``: the piece ``k`` of the closed chain ``corners`` (from corner
+    k to k+1) holding its nearest point, the parameter on that piece and the distance."""
     a = corners[None, :]
     e = (np.roll(corners, -1) - corners)[None, :]
-    out = []
+    ks, us, ds = [], [], []
     for lo in range(0, len(pts), 256):
         p = pts[lo : lo + 256, None]
         u = np.clip(((p - a) * np.conj(e)).real / np.abs(e) ** 2, 0.0, 1.0)
         d = np.abs(a + u * e - p)
         k = np.argmin(d, axis=1)
         r = np.arange(len(k))
-        for kk, uu, dd in zip(k.tolist(), u[r, k].tolist(), d[r, k].tolist()):
-            if dd <= reach:
-                out.append((kk, uu))
-    return out
+        ks.append(k)
+        us.append(u[r, k])
+        ds.append(d[r, k])
+    if not ks:
+        return np.zeros(0, np.int64), np.zeros(0), np.zeros(0)
+    return np.concatenate(ks), np.concatenate(us), np.concatenate(ds)
 
 
 def _ray_hits(
@@ -761,7 +764,8 @@ def ring_cells(
                     if Qkinds[(k + 1) % qn] > 0:
                         qpar[k] = np.append(qpar[k], 1 - lam * (1 - u))
     # the polygon's corners seen from the core: their nearest points on the core's outline
-    for k, u in _nearest_on_chain(Qcorners, z, reach):
+    near_k, near_u, near_d = _nearest_on_chain(Qcorners, z)
+    for k, u in zip(near_k[near_d <= reach].tolist(), near_u[near_d <= reach].tolist()):
         qpar[k] = np.append(qpar[k], u)
     Qside = _chain(Qcorners, Qkinds, Qrefs, qpar)
     # lattice midpoints are optional points that already exist
@@ -846,7 +850,7 @@ def ring_layout(z: NDArray[np.complex128], size: float) -> BlockLayout:
     tips = np.nonzero(theta < ANGLE_MIN - OWN_TOL)[0].astype(np.int64)
     e = np.roll(z, -1) - z
     phi0 = float(np.angle(e[np.argmax(np.abs(e))]))
-    area = 0.5 * float(np.sum((z.real * np.roll(z.imag, -1)) - (np.roll(z.real, -1) * z.imag)))
+    area = signed_area(z)
     deadline = time.perf_counter() + RING_SECONDS
     why = "no placement of the core was tried"
     for f in SPACINGS:
@@ -871,11 +875,7 @@ def ring_layout(z: NDArray[np.complex128], size: float) -> BlockLayout:
             own = cells < n
             bad = ~own & ((ang < ANGLE_MIN - OWN_TOL) | (ang > ANGLE_MAX + OWN_TOL))
             bad |= own & ((ang <= 0) | (ang >= 180))
-            w = X[cells]
-            cell_area = 0.5 * np.sum(
-                (w.real * np.roll(w.imag, -1, axis=1)) - (np.roll(w.real, -1, axis=1) * w.imag),
-                axis=1,
-            )
+            cell_area = quad_signed_areas(X, cells)
             if np.any(bad) or np.any(cell_area <= 0):
                 why = "a collar cell came out with a corner out of range"
                 continue
@@ -905,12 +905,7 @@ def _spokes(
     """The spokes of a ring layout: cell sides from a point on the polygon's boundary to a
     point off it, as ``(K, 2)`` end points."""
     scale = float(np.max(np.abs(z - z[0])))
-    a, e = z[None, :], (np.roll(z, -1) - z)[None, :]
-    on = np.zeros(len(X), dtype=bool)
-    for lo in range(0, len(X), 512):
-        p = X[lo : lo + 512, None]
-        u = np.clip(((p - a) * np.conj(e)).real / np.abs(e) ** 2, 0.0, 1.0)
-        on[lo : lo + 512] = np.min(np.abs(a + u * e - p), axis=1) <= 1e-12 * scale
+    on = _nearest_on_chain(z, X)[2] <= 1e-12 * scale
     i, j = cells.ravel(), np.roll(cells, -1, axis=1).ravel()
     pick = on[i] != on[j]
     sp = np.unique(np.sort(np.stack([i[pick], j[pick]], axis=1), axis=1), axis=0)
