@@ -761,6 +761,23 @@ class _PointIndex:
         return len(self.pts) - 1
 
 
+def _inside_sides(
+    a: NDArray[np.complex128],
+    d: NDArray[np.complex128],
+    L2: NDArray[np.float64],
+    pts: NDArray[np.complex128],
+    g: NDArray[np.int64],
+    j: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+    """Of the pairs (side ``g``, point ``j``), those whose point lies strictly inside the side
+    ``a[g] + t d[g]`` (0 < t < 1, within 1e-9 of its length): ``(g, t, j)`` of the hits."""
+    w = pts[j] - a[g]
+    t = (w * np.conj(d[g])).real / L2[g]
+    L = np.sqrt(L2[g])
+    hit = (t > 1e-9) & (t < 1 - 1e-9) & (np.abs((np.conj(d[g]) * w).imag) / L <= 1e-9 * L)
+    return g[hit], t[hit], j[hit]
+
+
 def _resolve_hanging(
     X: NDArray[np.complex128],
     cells: NDArray[np.int64],
@@ -781,6 +798,7 @@ def _resolve_hanging(
     # only points that are new or were hanging in the last round can hang on a side: a split
     # adds sides inside its cell, where no point lies
     pending = np.arange(len(pts))
+    found: dict[int, dict[int, list[tuple[float, int]]]] = {}
     for _ in range(max_rounds):
         if deadline is not None and time.perf_counter() > deadline:
             return None
@@ -791,13 +809,20 @@ def _resolve_hanging(
         d = b - a
         L2 = np.abs(d) ** 2
         # parameter and distance of the pending points against every side (chunked numpy)
-        found: dict[int, dict[int, list[tuple[float, int]]]] = {}
+        found = {}
         flat_a, flat_d, flat_L2 = a.ravel(), d.ravel(), L2.ravel()
         Pp = P[pending]
-        step = max(512, 2_000_000 // max(len(Pp), 1))
-        brute = len(Pp) * len(flat_a) <= BRUTE_PAIRS
-        if not brute:
-            # many points: only those near a side are tested against it (a k-d tree)
+
+        # candidate (side, point) pairs: all of them, or with many points those near a side
+        pairs: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
+        if len(Pp) * len(flat_a) <= BRUTE_PAIRS:
+            step = max(1, 2_000_000 // max(len(Pp), 1))
+            for lo in range(0, len(flat_a), step):
+                gg, jj = np.meshgrid(
+                    np.arange(lo, min(lo + step, len(flat_a))), np.arange(len(Pp)), indexing="ij"
+                )
+                pairs.append((gg.ravel(), jj.ravel()))
+        else:
             from scipy.spatial import cKDTree
 
             tree = cKDTree(np.column_stack([Pp.real, Pp.imag]))
@@ -805,32 +830,17 @@ def _resolve_hanging(
             near = tree.query_ball_point(
                 np.column_stack([mid.real, mid.imag]), 0.5 * np.sqrt(flat_L2) * (1 + 1e-9)
             )
-            for g, cand in enumerate(near):
-                if not cand:
-                    continue
-                w = Pp[cand] - flat_a[g]
-                t = (w * np.conj(flat_d[g])).real / flat_L2[g]
-                dist = np.abs((np.conj(flat_d[g]) * w).imag) / np.sqrt(flat_L2[g])
-                hit = (t > 1e-9) & (t < 1 - 1e-9) & (dist <= 1e-9 * np.sqrt(flat_L2[g]))
-                for k in np.nonzero(hit)[0]:
-                    found.setdefault(g // 4, {}).setdefault(g % 4, []).append(
-                        (float(t[k]), int(pending[cand[k]]))
-                    )
-        for lo in range(0, len(flat_a) if brute else 0, step):
-            sa, sd, sL = (
-                flat_a[lo : lo + step, None],
-                flat_d[lo : lo + step, None],
-                flat_L2[lo : lo + step, None],
-            )
-            w = Pp[None, :] - sa
-            t = (w * np.conj(sd)).real / sL
-            dist = np.abs((np.conj(sd) * w).imag) / np.sqrt(sL)
-            hit = (t > 1e-9) & (t < 1 - 1e-9) & (dist <= 1e-9 * np.sqrt(sL))
-            for si, pj in zip(*np.nonzero(hit)):
-                g = lo + int(si)
-                found.setdefault(g // 4, {}).setdefault(g % 4, []).append(
-                    (float(t[si, pj]), int(pending[pj]))
+            cnt = np.fromiter((len(c) for c in near), dtype=np.int64, count=len(near))
+            pairs.append(
+                (
+                    np.repeat(np.arange(len(near)), cnt),
+                    np.fromiter((j for c in near for j in c), dtype=np.int64, count=cnt.sum()),
                 )
+            )
+        for g, j in pairs:
+            gh, th, jh = _inside_sides(flat_a, flat_d, flat_L2, Pp, g, j)
+            for gg, tt, jj in zip(gh.tolist(), th.tolist(), pending[jh].tolist()):
+                found.setdefault(gg // 4, {}).setdefault(gg % 4, []).append((tt, jj))
         if not found:
             return P, C
         n_before = len(pts)
