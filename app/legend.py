@@ -62,8 +62,8 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
     layout = getattr(result, "blocks", None)
     if "block_layout" in visible and layout is not None:
         if len(layout.cuts):
-            ring = getattr(layout, "kind", "cuts") == "ring"
-            label = "spoke (collar around a lattice core)" if ring else "cut"
+            kind = getattr(layout, "kind", "cuts")
+            label = "cut" if kind == "cuts" else f"{layout.cut_noun} ({layout.title})"
             out.append(("block_layout", label, BLOCK_COLORS["cuts"]))
         if len(block_layout_edges(layout)[0]):
             out.append(("block_layout", "coarse cell edge", BLOCK_COLORS["cell edges"]))

@@ -976,6 +976,8 @@ class MainWindow(QMainWindow):
             if cell is not None:
                 info["piece"] = cell
                 info["part"] = f"coarse cell {cell} of the block layout"
+            elif r.blocks.kind == "ladder":
+                info["part"] = "a round end or bend of the corridor (a vertex sector)"
             return info
         part = quad_part_index(r)
         if part is not None:
@@ -1512,11 +1514,10 @@ class MainWindow(QMainWindow):
         if lay is not None:
             size = getattr(r.options, "size", None)
             split = " (faces split at centres)" if lay.split else ""
-            ring = getattr(lay, "kind", "cuts") == "ring"
             rows += [
-                ("method", "blocks (collar + lattice core)" if ring else "blocks"),
+                ("method", f"blocks ({lay.title})"),
                 ("coarse cells", f"{lay.n_cells}{split}"),
-                ("spokes" if ring else "cuts", f"{len(lay.cuts)}"),
+                (f"{lay.cut_noun}s", f"{len(lay.cuts)}"),
                 ("block size", "default (d/20)" if size is None else f"{size:.4g}"),
             ]
         else:

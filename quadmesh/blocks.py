@@ -74,6 +74,10 @@ MAX_CONFLICTS = 150_000
 BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
 SEARCH_SECONDS = 3.0
+#: wall-clock seconds the search for a ladder along the polygon as one corridor may take
+LADDER_SECONDS = 5.0
+#: a ladder mesh is used only if no edge is longer than this many times the target size
+LADDER_MAX_EDGE = 2.5
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -99,9 +103,13 @@ class BlockLayout:
         rounds: search rounds used.
         tees: cuts that end on another cut (T-junctions made conforming by splitting cells).
         angles: (C, 4) corner angles of the cells, degrees.
-        kind: ``"cuts"`` (straight cuts from the corners) or ``"ring"`` (a collar of quads
+        kind: ``"cuts"`` (straight cuts from the corners), ``"ring"`` (a collar of quads
             around a core on a triangular lattice, :mod:`quadmesh.rings`; ``cuts`` are then the
-            collar's spokes and ``faces`` is empty).
+            collar's spokes and ``faces`` is empty) or ``"ladder"`` (the polygon is one
+            corridor: a ladder of straight cells between its two ends,
+            :func:`quadmesh.thin.corridor.ladder_layout`; ``cuts`` are the rungs across it,
+            ``faces`` is empty, and round ends and bends are meshed as vertex sectors outside
+            the cells).
     """
 
     polygon: NDArray[np.complex128]
@@ -120,6 +128,24 @@ class BlockLayout:
     def n_cells(self) -> int:
         """Number of coarse cells."""
         return len(self.cells)
+
+    @property
+    def cut_noun(self) -> str:
+        """What one of ``cuts`` is, for a user: "cut", "spoke" or "rung"."""
+        return _KIND_WORDS[self.kind][0]
+
+    @property
+    def title(self) -> str:
+        """What the layout is made of, for a user (e.g. "collar around a lattice core")."""
+        return _KIND_WORDS[self.kind][1]
+
+
+#: per layout kind: the name of one of its cuts and what the layout is made of
+_KIND_WORDS = {
+    "cuts": ("cut", "straight cuts from the corners"),
+    "ring": ("spoke", "collar around a lattice core"),
+    "ladder": ("rung", "ladder of straight cells along a corridor"),
+}
 
 
 def _scale(z: NDArray[np.complex128]) -> float:
@@ -1044,7 +1070,7 @@ def _search(
 
 def mesh_blocks(
     polygon: ArrayLike, size: float | None = None
-) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement]:
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement | None]:
     """Quad mesh of a polygon from its block layout, refined to edge length about ``size``.
 
     Args:
@@ -1052,8 +1078,17 @@ def mesh_blocks(
         size: target edge length (default :func:`default_block_size`); every chord of the layout
             gets ``ceil(longest edge / size)`` segments, chords through a tip cell stay whole.
 
+    The layout is the first of: straight cuts (:func:`block_layout`); a ladder of straight
+    cells along the polygon as one corridor (:func:`_ladder_mesh`); a collar around a lattice
+    core (:func:`quadmesh.rings.ring_layout`).
+
     Returns:
-        ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices.
+        ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices;
+        ``refinement`` is None for a ladder (its cells are refined by runs of rungs, its ends
+        and bends are vertex sectors).
+
+    Raises:
+        BlockLayoutError: none of the three layouts closes.
     """
     z = np.asarray(polygon, dtype=np.complex128)
     h = default_block_size(z) if size is None else float(size)
@@ -1062,14 +1097,19 @@ def mesh_blocks(
     try:
         lay = block_layout(z)
     except BlockLayoutError as exc:
-        # no straight cuts close: a collar around a lattice core (round and dense outlines)
+        # no straight cuts close: the polygon as one corridor (strokes, round shapes with two
+        # ends), else a collar around a lattice core (round and dense outlines)
+        ladder = _ladder_mesh(z, h)
+        if ladder is not None:
+            return ladder
         from .rings import RingLayoutError, ring_layout
 
         try:
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
             raise BlockLayoutError(
-                f"{exc.args[0]}; nor does a collar around a lattice core close ({ring_exc.args[0]})"
+                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon or a "
+                f"collar around a lattice core close ({ring_exc.args[0]})"
             ) from exc
     # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
     # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
@@ -1078,3 +1118,42 @@ def mesh_blocks(
         lay.points, lay.cells, size=h, tips=lay.tips.tolist(), check=False
     )
     return pts, quads, lay, info
+
+
+def _ladder_mesh(
+    z: NDArray[np.complex128], size: float
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, None] | None:
+    """The polygon meshed as one corridor (:func:`quadmesh.thin.corridor.mesh_corridor`): a
+    ladder of convex straight cells with corners in [60°, 120°] between its two ends, refined
+    with about four quads across and none longer than ``size``; round ends and bends are
+    vertex sectors.  None when the polygon has no such ladder, or when the sectors' spokes would
+    be longer than :data:`LADDER_MAX_EDGE` times ``size`` (the polygon is too wide for a
+    ladder at this size)."""
+    from .errors import ThinPartError
+    from .thin.corridor import ladder_layout, mesh_corridor
+
+    try:
+        lad = ladder_layout(z, deadline=time.perf_counter() + LADDER_SECONDS)
+        cm = mesh_corridor(z, size=size, lay=lad)
+    except ThinPartError:
+        return None
+    checkpoint()
+    # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
+    # wide for the size (a disk, say) their spokes would be long needles, not quads of the size
+    q = cm.vertices[cm.quads]
+    if np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * size:
+        return None
+    pts = np.asarray(lad.vertices, dtype=np.complex128)
+    cells = np.asarray(lad.cells, dtype=np.int64).reshape(-1, 4)
+    lay = BlockLayout(
+        polygon=z,
+        points=pts,
+        cuts=pts[np.asarray(lad.rungs, dtype=np.int64).reshape(-1, 2)],
+        faces=(),
+        cells=cells,
+        tips=np.flatnonzero(_angles_deg(z) < ANGLE_MIN - ANGLE_TOL).astype(np.int64),
+        split=False,
+        angles=cell_angles(pts[cells]),
+        kind="ladder",
+    )
+    return np.asarray(cm.vertices, dtype=np.complex128), np.asarray(cm.quads, np.int64), lay, None

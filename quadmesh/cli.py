@@ -247,9 +247,9 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
     if result.blocks is not None:
         lay = result.blocks
         what = (
-            f"{len(lay.cuts)} spokes of a collar around a lattice core"
-            if lay.kind == "ring"
-            else f"{len(lay.cuts)} cuts, {len(lay.faces)} faces"
+            f"{len(lay.cuts)} cuts, {len(lay.faces)} faces"
+            if lay.kind == "cuts"
+            else f"{len(lay.cuts)} {lay.cut_noun}s of a {lay.title}"
         )
         print(
             f"block layout: {what}, {lay.n_cells} blocks"

@@ -254,6 +254,51 @@ def test_no_layout_falls_back_and_says_why(main_window, qtbot):
 
 
 @pytest.mark.gui
+def test_spiral_blocks_by_a_ladder_show_rungs_and_sectors(main_window, qtbot):
+    """Blocks chosen with the mouse on the 3-turn pen spiral (no straight cuts close): the layout
+    is a ladder of straight cells along the corridor; the legend calls its lines rungs, the
+    information panel names the ladder, and a clicked quad names its coarse cell or, at a
+    round end, the vertex sector it belongs to."""
+    import shapely
+
+    require_pipeline()
+    win = main_window
+    verts = _load_example(win, "stroke_spiral")
+    _choose_blocks_by_mouse(win, qtbot)
+    _mesh_by_click(win, qtbot)
+
+    r = win.result
+    assert r.fallback is None and r.blocks.kind == "ladder"
+    assert r.verification.ok
+    assert_angles_ok(r.mesh, r.quality)
+    want = mesh_polygon(
+        verts, MeshOptions(method="blocks", size=0.05 * validate_polygon(verts).diameter)
+    )
+    assert want.mesh.n_quads == r.mesh.n_quads
+    assert (
+        win.legend.labels("block_layout")[0] == "rung (ladder of straight cells along a corridor)"
+    )
+    info = win.info_label.text()
+    assert "ladder" in info and "rungs" in info
+    # quads inside a coarse cell and quads in a round end (outside every cell)
+    lay = r.blocks
+    cells = shapely.MultiPolygon(
+        [shapely.Polygon(np.column_stack([c.real, c.imag])) for c in lay.points[lay.cells]]
+    )
+    cent = r.mesh.z[r.mesh.quads].mean(axis=1)
+    shift = complex(r.origin or 0j) - complex(r.mesh_origin or 0j)
+    inside = shapely.contains_xy(cells.buffer(-1e-9), (cent + shift).real, (cent + shift).imag)
+    assert inside.any() and (~inside).any()
+    for k, part in (
+        (int(np.flatnonzero(inside)[0]), "coarse cell"),
+        (int(np.flatnonzero(~inside)[0]), "round end"),
+    ):
+        click(qtbot, win.plane, r.mesh.z[r.mesh.quads[k]].mean())
+        assert win.picked_quad is not None and part in win.picked_quad["part"], k
+        assert part in win.quad_label.text()
+
+
+@pytest.mark.gui
 def test_octagon_blocks_by_a_collar_show_spokes(main_window, qtbot):
     """Blocks chosen with the mouse on the octagon (no straight cuts close there): the layout
     is a collar around a lattice core, the legend calls its lines spokes and the information

@@ -10,11 +10,21 @@ import numpy as np
 import pytest
 
 from quadmesh import MeshOptions, mesh_polygon
-from quadmesh.blocks import BlockLayoutError, _resolve_hanging, block_layout, mesh_blocks
+from quadmesh.blocks import (
+    LADDER_MAX_EDGE,
+    BlockLayoutError,
+    _ladder_mesh,
+    _resolve_hanging,
+    block_layout,
+    default_block_size,
+    mesh_blocks,
+)
 from quadmesh.cells import cell_angles
 from quadmesh.cli import main as cli_main
 from quadmesh.examples import load_example
 from quadmesh.io import write_mesh
+from quadmesh.polygon import validate_polygon
+from quadmesh.thin.corridor import mesh_corridor
 from tests.test_strict import independent_check
 
 L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
@@ -236,3 +246,49 @@ def test_vectorised_conflicts_match_the_pair_rule(name: str) -> None:
         if _pair_conflicts(z, rays[a], rays[b], POINT_GAP * d)
     }
     assert got == want and len(want) > 0
+
+
+@pytest.mark.parametrize(
+    ("name", "most_per_vertex"), [("slit_355deg", 40), ("river", 10), ("stroke_spiral", 25)]
+)
+def test_corridors_close_by_a_ladder_of_straight_cells(name: str, most_per_vertex: int, tmp_path):
+    """Where straight cuts do not close, a polygon that is one corridor (a 355° slit, a ragged
+    river, a 3-turn pen spiral) gets a ladder of convex straight cells: coarse corners in
+    [60°, 120°] (the polygon's own corners kept whole), every rung from boundary to boundary,
+    no edge longer than LADDER_MAX_EDGE × size; the written mesh passes the independent check
+    at 1e-9°."""
+    verts = load_example(name)
+    z = validate_polygon(verts).z
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks.kind == "ladder"
+    lay = res.blocks
+    assert lay.cut_noun == "rung" and "ladder" in lay.title
+    ang = cell_angles(lay.points[lay.cells])
+    own = lay.cells < len(z)
+    assert np.all(ang[~own] >= 60.0) and np.all(ang[~own] <= 120.0)
+    assert np.all((ang > 0) & (ang < 180))
+    # rungs end on the polygon's boundary
+    e = np.roll(z, -1) - z
+    for end in lay.cuts.ravel():
+        u = np.clip(((end - z) * np.conj(e)).real / np.abs(e) ** 2, 0, 1)
+        assert np.min(np.abs(z + u * e - end)) <= 1e-9 * np.abs(z).max()
+    q = res.mesh.z[res.mesh.quads]
+    longest = np.abs(np.roll(q, -1, axis=1) - q).max()
+    assert longest <= LADDER_MAX_EDGE * default_block_size(z) * (1 + 1e-12)
+    out = tmp_path / f"{name}.json"
+    write_mesh(out, res.mesh)
+    got = independent_check(out, verts, angle_tol=1e-9)
+    assert got["n_quads"] == res.mesh.n_quads <= most_per_vertex * len(z)
+
+
+def test_a_ladder_is_refused_where_its_ends_would_be_needles() -> None:
+    """The octagon is a corridor of one rung between two round ends, but the ends' sectors
+    would have spokes of several target sizes: the ladder is refused for blocks (a collar
+    closes instead), although the corridor mesher itself accepts it."""
+    z = validate_polygon(load_example("octagon")).z
+    h = default_block_size(z)
+    cm = mesh_corridor(z, size=h)
+    q = cm.vertices[cm.quads]
+    assert np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * h
+    assert _ladder_mesh(z, h) is None
+    assert mesh_polygon(load_example("octagon"), MeshOptions(method="blocks")).blocks.kind == "ring"

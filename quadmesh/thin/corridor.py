@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import ThinPartError
 from ..polygon import interior_angles
+from ..progress import checkpoint
 
 __all__ = ["CorridorLayout", "corridor_tips", "ladder_layout"]
 
@@ -177,14 +179,19 @@ def ladder_layout(
     margin: float = CELL_MARGIN,
     debug: dict | None = None,
     partial: bool = False,
+    deadline: float | None = None,
 ) -> CorridorLayout:
     """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
     its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
     [60° + margin, 120° − margin] (original polygon corners below 60° are kept as they are).
 
+    ``deadline`` (a :func:`time.perf_counter` value) bounds the search for sectors at bends,
+    its most expensive part on long ragged walls.
+
     Raises:
         ThinPartError: no admissible layout exists with the sampled rung ends (the message
-            names the stretch of the walls where the search got stuck).
+            names the stretch of the walls where the search got stuck), or none was found
+            before ``deadline``.
     """
     z = np.asarray(z, dtype=np.complex128)
     n = z.size
@@ -461,6 +468,9 @@ def ladder_layout(
     lo_ang = 60.0 + margin
     for C, O, pA, pB, on_l in ((L, R, pa, pb, True), (R, L, pb, pa, False)):
         for ap in np.flatnonzero(C.is_vertex & (C.theta >= 200.0)):
+            checkpoint()
+            if deadline is not None and time.perf_counter() > deadline:
+                raise ThinPartError("no ladder of straight cells was found in the time allowed")
             rs = np.flatnonzero(pA == ap)
             if rs.size < 2:
                 continue
@@ -721,11 +731,13 @@ def _cell_cost(q0, q1, q2, q3, margin):
     return cost, ok
 
 
-def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
-    """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`), its round
-    ends and bends meshed as vertex sectors, and its cells refined by runs of rungs
-    (:func:`_refine_ladder`) with about ``across`` quads across the corridor and roughly square
-    quads along it.
+def mesh_corridor(
+    z: np.ndarray, *, across: int = 4, size: float | None = None, lay: CorridorLayout | None = None
+) -> CorridorMesh:
+    """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`, or ``lay``
+    when given), its round ends and bends meshed as vertex sectors, and its cells refined by
+    runs of rungs (:func:`_refine_ladder`) with about ``across`` quads across the corridor (more
+    where ``size``, a largest edge length, asks for it) and roughly square quads along it.
 
     Every new angle lies in [60°, 120°]: cells are convex with corners in [60.05°, 119.95°] and
     refined as bilinear grids (the bilinear argument), the sectors' angles are exact or checked,
@@ -735,16 +747,23 @@ def mesh_corridor(z: np.ndarray, *, across: int = 4) -> CorridorMesh:
         ThinPartError: no ladder layout exists, or a sector or morphing run fails its check.
     """
     z = np.asarray(z, dtype=np.complex128)
-    return _mesh_layout(ladder_layout(z), z, across, {})
+    return _mesh_layout(ladder_layout(z) if lay is None else lay, z, across, {}, size)
 
 
 def _mesh_layout(
-    lay: CorridorLayout, z: np.ndarray, across: int, extra_fixed: dict[int, np.ndarray]
+    lay: CorridorLayout,
+    z: np.ndarray,
+    across: int,
+    extra_fixed: dict[int, np.ndarray],
+    max_size: float | None = None,
 ) -> CorridorMesh:
     """Refine a ladder layout of the polygon ``z`` (sectors built, rungs' points fixed by
-    them and by ``extra_fixed``, runs refined and glued) into a :class:`CorridorMesh`."""
+    them and by ``extra_fixed``, runs refined and glued) into a :class:`CorridorMesh`: about
+    ``across`` segments per median rung, segments no longer than ``max_size`` where given."""
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
+    if max_size is not None:
+        size = min(size, float(max_size))
     tips = np.flatnonzero(np.degrees(interior_angles(z)) < 60.0)
     # sectors first (round ends, bends): they fix the points on their rungs
     rung_of = {(int(a), int(b)): k for k, (a, b) in enumerate(lay.rungs)}
