@@ -192,13 +192,19 @@ def mesh_file(
     output: str | Path,
     options: MeshOptions | None = None,
     timeout: float | None = None,
+    relative_size: float | None = None,
 ) -> BatchResult:
-    """Mesh the polygon file ``path`` and write the mesh to ``output`` (format from its
-    extension; written under a temporary name and renamed, so ``output`` never holds half a
-    mesh). Never raises for a bad file or polygon: every outcome is a :class:`BatchResult`.
+    """Mesh the polygon file ``path`` with ``options`` and write the mesh to ``output`` (format
+    from its extension; written under a temporary name and renamed, so ``output`` never holds
+    half a mesh). Never raises for a bad file or polygon: every outcome is a
+    :class:`BatchResult`.
 
     ``timeout``: seconds after which the meshing stops at its next cancellation checkpoint
-    (``status="timeout"``). A top-level function, so executors can pickle it."""
+    (``status="timeout"``). ``relative_size``: the blocks' target edge as a fraction of this
+    polygon's diameter (overrides ``options.size``). A top-level function, so executors can
+    pickle it."""
+    from dataclasses import replace
+
     from .io import read_polygon, write_mesh
     from .pipeline import mesh_polygon
     from .polygon import validate_polygon
@@ -214,12 +220,18 @@ def mesh_file(
         if poly.reversed_input:
             notes.append("the polygon was clockwise and has been reversed")
         fields.update(n=poly.n, notes=tuple(notes))
+        if relative_size is not None:
+            options = replace(options or MeshOptions(), size=relative_size * poly.diameter)
         deadline = None if timeout is None else time.perf_counter() + timeout
         t1 = time.perf_counter()
         result = mesh_polygon(
-            poly, cancel=None if deadline is None else lambda: time.perf_counter() > deadline
+            poly,
+            options,
+            cancel=None if deadline is None else lambda: time.perf_counter() > deadline,
         )
         fields["mesh_time"] = time.perf_counter() - t1
+        if result.fallback:
+            fields["notes"] = (*fields["notes"], result.fallback)
         write_mesh(partial, result.mesh, origin=result.mesh_origin)
         check_written(partial, result, poly)
         os.replace(partial, output)
@@ -287,11 +299,13 @@ def _run_executor(
     options: MeshOptions | None,
     timeout: float | None,
     on_result: Callable[[int, BatchResult], None] | None,
+    relative_size: float | None = None,
 ) -> list[BatchResult]:
     """Submit :func:`mesh_file` for every (path, output) to ``executor``; results in order."""
     t0 = time.perf_counter()
     futures: dict[Future, int] = {
-        executor.submit(mesh_file, p, o, options, timeout): i for i, (p, o) in enumerate(jobs)
+        executor.submit(mesh_file, p, o, options, timeout, relative_size): i
+        for i, (p, o) in enumerate(jobs)
     }
     results: list[BatchResult | None] = [None] * len(jobs)
     for fut in as_completed(futures):
@@ -318,6 +332,7 @@ def _run_own_processes(
     options: MeshOptions | None,
     timeout: float,
     on_result: Callable[[int, BatchResult], None] | None,
+    relative_size: float | None = None,
 ) -> list[BatchResult]:
     """Every file in its own worker process (at most ``workers`` at a time), killed
     :data:`KILL_GRACE` seconds past ``timeout`` (:func:`quadmesh.benchmark.run_in_processes`)."""
@@ -343,7 +358,7 @@ def _run_own_processes(
 
     return run_in_processes(
         mesh_file,
-        [(p, o, options, timeout) for p, o in jobs],
+        [(p, o, options, timeout, relative_size) for p, o in jobs],
         timeout=timeout + KILL_GRACE,
         workers=workers,
         on_timeout=killed,
@@ -361,6 +376,7 @@ def mesh_files(
     fmt: str = "json",
     timeout: float | None = None,
     options: MeshOptions | None = None,
+    relative_size: float | None = None,
     on_result: Callable[[int, BatchResult], None] | None = None,
 ) -> list[BatchResult]:
     """Mesh every polygon file of ``paths`` into ``outdir`` (created if missing) as
@@ -375,6 +391,8 @@ def mesh_files(
         fmt: mesh format, one of ``json vtk vtu msh obj ply mesh``.
         timeout: seconds per polygon (see the module's docstring); None: no limit.
         options: :class:`MeshOptions` for every polygon (default: the defaults).
+        relative_size: for ``method="blocks"``, the target edge as a fraction of each
+            polygon's own diameter (overrides ``options.size``).
         on_result: ``on_result(i, result)`` called as the i-th file finishes.
 
     Raises:
@@ -392,7 +410,7 @@ def mesh_files(
     if executor is None and timeout is None and (jobs == 1 or len(work) <= 1):
         results = []
         for i, (p, o) in enumerate(work):
-            results.append(mesh_file(p, o, options))
+            results.append(mesh_file(p, o, options, None, relative_size))
             if on_result is not None:
                 on_result(i, results[-1])
         return results
@@ -406,14 +424,14 @@ def mesh_files(
             on_result(order[k], r)
 
     if executor is not None:
-        done = _run_executor(executor, queued, options, timeout, back)
+        done = _run_executor(executor, queued, options, timeout, back, relative_size)
     elif timeout is not None:
-        done = _run_own_processes(queued, jobs, options, timeout, back)
+        done = _run_own_processes(queued, jobs, options, timeout, back, relative_size)
     else:
         from .benchmark import process_context
 
         with ProcessPoolExecutor(min(jobs, len(work)), mp_context=process_context()) as pool:
-            done = _run_executor(pool, queued, options, None, back)
+            done = _run_executor(pool, queued, options, None, back, relative_size)
     results: list[BatchResult] = list(done)
     for k, i in enumerate(order):
         results[i] = done[k]

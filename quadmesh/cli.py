@@ -8,8 +8,9 @@ Subcommands (``quadmesh <command> --help`` for details):
   (:meth:`quadmesh.mesh.QuadMesh.verify`) and print its report, including the edge lengths
   against the polygon's local feature size (smallest ratio and where, median, shares of
   edges below 1/1000 and 1/50; measured, never a reason to refuse);
-* ``batch DIR -o OUTDIR [--jobs N] [--format F] [--timeout S] [--stats]``: mesh every polygon
-  file of a folder (:func:`quadmesh.batch.mesh_files`), one mesh each, and print a table;
+* ``batch DIR -o OUTDIR [--jobs N] [--method M] [--size H] [--format F] [--timeout S]
+  [--stats]``: mesh every polygon file of a folder (:func:`quadmesh.batch.mesh_files`), one
+  mesh each, and print a table;
   exit code 0 if all were meshed, 1 if some were not (listed);
 * ``info POLYGON``: vertex count, area and angle summary of a polygon file;
 * ``disk-demo -o disk.png``: picture of the disk construction (Lemma 2.2).
@@ -71,6 +72,22 @@ def _size_arg(text: str) -> tuple[float, bool]:
     return v, rel
 
 
+def _add_method_arguments(p: argparse.ArgumentParser) -> None:
+    """``--method`` and ``--size`` (of ``mesh`` and ``batch``)."""
+    p.add_argument(
+        "--method",
+        choices=("bishop", "blocks"),
+        help="bishop: the paper's construction (default); blocks: straight cuts into convex "
+        "blocks refined by grids, far fewer quads (falls back to bishop where no layout is found)",
+    )
+    p.add_argument(
+        "--size",
+        type=_size_arg,
+        help="target edge length for --method blocks: a length, or a fraction of the "
+        "polygon's diameter written with a trailing 'd' (0.05d); default 0.05d",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``quadmesh`` command."""
     parser = argparse.ArgumentParser(
@@ -85,18 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = _add_command(sub, "mesh", "mesh a polygon file")
     p.add_argument("polygon", type=Path, help="polygon file")
     p.add_argument("-o", "--output", type=Path, required=True, help="mesh file to write")
-    p.add_argument(
-        "--method",
-        choices=("bishop", "blocks"),
-        help="bishop: the paper's construction (default); blocks: straight cuts into convex "
-        "blocks refined by grids, far fewer quads (falls back to bishop where no layout is found)",
-    )
-    p.add_argument(
-        "--size",
-        type=_size_arg,
-        help="target edge length for --method blocks: a length, or a fraction of the "
-        "polygon's diameter written with a trailing 'd' (0.05d); default 0.05d",
-    )
+    _add_method_arguments(p)
     p.add_argument("--n", type=int, help="steps per half pentagon side (Lemma 4.1)")
     p.add_argument("--depth-step", type=float, help="spacing of the depth sequence (Lemma 5.1)")
     p.add_argument("--delta", type=float, help="extremal-distance threshold of narrow channels")
@@ -143,6 +149,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "-j", "--jobs", type=int, default=1, help="worker processes (default 1: one by one)"
     )
+    _add_method_arguments(p)
     p.add_argument(
         "--format",
         default="json",
@@ -298,6 +305,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _cmd_batch(args: argparse.Namespace) -> int:
     from .batch import format_table, mesh_files, polygon_files
+    from .result import MeshOptions
 
     if args.jobs < 1:
         raise InputFormatError(f"--jobs must be at least 1, got {args.jobs}")
@@ -325,6 +333,12 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         what = f"{r.quads} quads" if r.ok else f"{r.status}: {r.error}"
         print(f"[{done}/{total}] {r.path.name}: {what} ({r.time:.2f} s)", flush=True)
 
+    options = MeshOptions() if args.method is None else MeshOptions(method=args.method)
+    relative = None
+    if args.size is not None and args.size[1]:
+        relative = args.size[0]
+    elif args.size is not None:
+        options = dataclasses.replace(options, size=args.size[0])
     t0 = time.perf_counter()
     results = mesh_files(
         paths,
@@ -332,6 +346,8 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         jobs=args.jobs,
         fmt=args.format,
         timeout=args.timeout,
+        options=options,
+        relative_size=relative,
         on_result=report,
     )
     wall = time.perf_counter() - t0
