@@ -110,6 +110,8 @@ class BlockLayout:
             :func:`quadmesh.thin.corridor.ladder_layout`; ``cuts`` are the rungs across it,
             ``faces`` is empty, and round ends and bends are meshed as vertex sectors outside
             the cells).
+        kites: True when the tips were cut off by tip kites (:func:`block_layout`), each
+            tip the corner of one small kite cell rather than of a block reaching across.
     """
 
     polygon: NDArray[np.complex128]
@@ -123,6 +125,7 @@ class BlockLayout:
     tees: int = 0
     angles: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4)))
     kind: str = "cuts"
+    kites: bool = False
 
     @property
     def n_cells(self) -> int:
@@ -212,8 +215,12 @@ def _first_hit(z: NDArray[np.complex128], i: int, d: complex) -> tuple[float, in
     return float(t[j]), j, float(u[j])
 
 
-def _windows(theta: float) -> list[tuple[float, float]]:
-    """Direction windows (degrees from the outgoing edge) of the cut slots of a corner."""
+def _windows(theta: float, exact: bool = False) -> list[tuple[float, float]]:
+    """Direction windows (degrees from the outgoing edge) of the cut slots of a corner.  An
+    ``exact`` corner (240° by construction: a tip kite's inner point with a 120° kite corner)
+    has one cut along its bisector, both parts exactly 120°."""
+    if exact:
+        return [(0.5 * theta, 0.5 * theta)]
     m = LAYOUT_MARGIN
     lo, hi = ANGLE_MIN + m, ANGLE_MAX - m
     if theta <= ANGLE_MAX + ANGLE_TOL:
@@ -228,17 +235,21 @@ def _candidates(
     theta: NDArray[np.float64],
     diam: float,
     bare: list[_Ray] | None = None,
+    rigid: frozenset[int] = frozenset(),
+    exact: frozenset[int] = frozenset(),
 ) -> list[_Ray]:
     """Candidate cuts of every corner above 120°: ``RAY_SAMPLES`` directions spread over each
     cut's window, each running to the first boundary point it meets, kept when it meets the
     boundary at an angle in [60.5°, 119.5°] away from corners; and joins to other such corners
     in view whose own windows admit them.  Rays whose boundary end is unusable go to ``bare``
-    (when given): they can still serve shortened, ending on another cut (:func:`_t_variants`)."""
+    (when given): they can still serve shortened, ending on another cut (:func:`_t_variants`).
+    A ray may not end inside a ``rigid`` edge (a side of a tip kite, which is never split);
+    ``exact`` corners as in :func:`_windows`."""
     n = len(z)
     gap = POINT_GAP * diam
     m = LAYOUT_MARGIN
     e_out = np.roll(z, -1) - z
-    wins = [_windows(float(t)) for t in theta]
+    wins = [_windows(float(t), i in exact) for i, t in enumerate(theta)]
     rays: list[_Ray] = []
 
     def slot_of(i: int, phi: float) -> int | None:
@@ -288,7 +299,7 @@ def _candidates(
             end = z[j] + u * ej
             alpha = _line_angle(d, ej)
             # too close to a corner (only joins may end at corners) or at a bad angle
-            if u * abs(ej) < gap or (1 - u) * abs(ej) < gap or alpha < ANGLE_MIN + m:
+            if u * abs(ej) < gap or (1 - u) * abs(ej) < gap or alpha < ANGLE_MIN + m or j in rigid:
                 if bare is not None:
                     bare.append(
                         _Ray(i, d, end, -1, 0.0, -1, [(i, k)], 1.0 + 0.2 * t / diam, -1, -1, t)
@@ -908,11 +919,21 @@ def _resolve_hanging(
 # --------------------------------------------------------------------------- the layout
 
 
-def block_layout(polygon: ArrayLike) -> BlockLayout:
+def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     """A coarse layout of admissible cells for a counter-clockwise simple polygon.
+
+    A polygon corner below 60° (a *tip*) is first cut off by a *tip kite* (:func:`_tip_kite`):
+    a quad with the tip, two points on its edges at distance about ``size`` and a fourth point
+    on its bisector, with new corners in [60°, 120°]; the rest of the polygon then gets a
+    reflex corner of more than 240° there and is laid out by straight cuts like any other
+    polygon, no cut ending on the kite.  The kite is the only cell that is never split, so the
+    tip no longer forces one segment on every chord through a block reaching across the
+    polygon.  If no layout with kites closes, the tips' blocks are kept whole instead.
 
     Args:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
+        size: the block size the layout will be refined to (default
+            :func:`default_block_size`); it sets the size of the tip kites.
 
     Returns:
         A :class:`BlockLayout` whose cells are convex, counter-clockwise, conforming, cover the
@@ -923,11 +944,32 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
         BlockLayoutError: no set of cuts was found (the message says at which corners).
     """
     z = np.asarray(polygon, dtype=np.complex128)
+    theta = _angles_deg(z)
+    tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
+    if len(tips):
+        h = default_block_size(z) if size is None else float(size)
+        lay = _kite_layout(z, theta, tips, h)
+        if lay is not None:
+            return lay
+    return _cut_layout(z)
+
+
+def _cut_layout(
+    z: NDArray[np.complex128],
+    rigid: frozenset[int] = frozenset(),
+    kites: tuple[tuple[complex, int, int, int], ...] = (),
+    exact: frozenset[int] = frozenset(),
+) -> BlockLayout:
+    """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
+    ``kites`` (tip point, then the indices in ``z`` of its kite's other three corners, counter-
+    clockwise) the tip points are appended to the layout's points and the kites to its cells;
+    no cut ends inside a ``rigid`` edge of ``z`` (a kite side) and no split crosses a kite;
+    an ``exact`` corner (a kite's inner point at 240°) is cut along its bisector only."""
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
-    slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]))))]
+    slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]), i in exact)))]
     if len(slots) > MAX_SLOTS:
         raise BlockLayoutError(
             f"{len(slots)} cuts would be needed ({len({i for i, _ in slots})} corners above "
@@ -935,7 +977,7 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
             "round parts of the outline would help"
         )
     bare: list[_Ray] = []
-    rays = _candidates(z, theta, diam, bare) if slots else []
+    rays = _candidates(z, theta, diam, bare, rigid, exact) if slots else []
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
@@ -968,13 +1010,142 @@ def block_layout(polygon: ArrayLike) -> BlockLayout:
             tee_rays = _t_variants(z, rays, diam, bare=bare)
         pool = rays + (tee_rays if tees else [])
         checkpoint()
-        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems)
+        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems, rigid, kites, exact)
         if lay is not None:
             return lay
     raise BlockLayoutError(
         "no set of straight cuts splits the polygon into blocks with every corner in "
         f"[60°, 120°] ({len(rays)} candidate cuts at {len({r.start for r in rays})} obtuse or "
         f"reflex corners{'; ' + problems[-1] if problems else ''})"
+    )
+
+
+#: corner of a tip kite at its inner point, degrees (tried in this order, where admissible);
+#: at 120° the rest of the polygon is cut once along the kite's axis, both parts exactly 120°
+KITE_INNER = (120.0, 112.0, 96.0, 80.0)
+#: a tip kite reaches at most this fraction of each edge at the tip
+KITE_EDGE_SHARE = 0.4
+#: time for the layout searches with tip kites before the tips are kept whole instead
+KITE_SECONDS = 4.0
+
+
+def _tip_kite(
+    z: NDArray[np.complex128], i: int, theta: float, t: float, c: float
+) -> tuple[complex, complex, complex]:
+    """The kite cutting off the tip ``z[i]`` (angle ``theta`` < 60°): points ``A`` on the edge to
+    the next vertex and ``B`` on the edge from the previous one, both at distance ``t`` from the
+    tip, and ``C`` on the bisector where the kite's corner is ``c``.  The corners at A and B are
+    ``a = 180° - theta/2 - c/2`` each (so ``theta + 2a + c = 360°``); the rest of the polygon
+    gets ``180° - a`` at A and B and ``360° - c`` at C.  Returns ``(A, C, B)``."""
+    p = z[i]
+    e1 = z[(i + 1) % len(z)] - p
+    e2 = z[i - 1] - p
+    u1, u2 = e1 / abs(e1), e2 / abs(e2)
+    a = 180.0 - 0.5 * theta - 0.5 * c
+    bis = (u1 + u2) / abs(u1 + u2)
+    rho = t * math.sin(math.radians(a)) / math.sin(math.radians(0.5 * c))
+    return p + t * u1, p + rho * bis, p + t * u2
+
+
+def _kite_layout(
+    z: NDArray[np.complex128], theta: NDArray[np.float64], tips: NDArray[np.int64], h: float
+) -> BlockLayout | None:
+    """The layout of :func:`block_layout` with every tip cut off by a kite (:func:`_tip_kite`):
+    the first that closes over the inner angles of :data:`KITE_INNER` and the kite sizes ``h``
+    and ``h/2`` (each at most :data:`KITE_EDGE_SHARE` of the edges at the tip), within
+    :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``."""
+    from shapely.geometry import Polygon as ShapelyPolygon
+
+    n = len(z)
+    e_len = np.abs(np.roll(z, -1) - z)
+    is_tip = np.zeros(n, dtype=bool)
+    is_tip[tips] = True
+    outline = ShapelyPolygon(np.column_stack([z.real, z.imag]))
+    diam = _scale(z)
+    lo_c = np.maximum(ANGLE_MIN + LAYOUT_MARGIN, 2 * (180.0 - ANGLE_MAX + LAYOUT_MARGIN) - theta)
+    t_max = KITE_EDGE_SHARE * np.minimum(e_len, np.roll(e_len, 1))
+    if np.any(t_max[tips] < 3 * POINT_GAP * diam):
+        return None  # a tip between edges too short for a kite the cuts can keep clear of
+    deadline = time.perf_counter() + KITE_SECONDS
+    for scale in (1.0, 0.5):
+        for c_pref in KITE_INNER:
+            if time.perf_counter() > deadline:
+                return None
+            ring: list[complex] = []
+            owner: list[int] = []  # original vertex index, or -1 for a kite point
+            kites: list[tuple[complex, int, int, int]] = []  # (tip, A, C, B), C's in ring
+            rigid: set[int] = set()
+            exact: set[int] = set()
+            for i in range(n):
+                if not is_tip[i]:
+                    ring.append(z[i])
+                    owner.append(i)
+                    continue
+                if c_pref == ANGLE_MAX:
+                    c = ANGLE_MAX  # one cut along the axis, both parts exactly 120°
+                    exact.add(len(ring) + 1)
+                else:
+                    c = min(max(c_pref, float(lo_c[i])), ANGLE_MAX - LAYOUT_MARGIN)
+                t = min(scale * h, float(t_max[i]))
+                A, C, B = _tip_kite(z, i, float(theta[i]), t, c)
+                k = len(ring)
+                ring += [B, C, A]
+                owner += [-1, -1, -1]
+                rigid |= {k, k + 1}  # edges B -> C and C -> A
+                kites.append((complex(z[i]), k + 2, k + 1, k))
+            zr = np.asarray(ring, dtype=np.complex128)
+            # the kites lie inside the polygon: the cut polygon stays simple and its area is
+            # the polygon's less the kites'
+            cut = ShapelyPolygon(np.column_stack([zr.real, zr.imag]))
+            kite_area = sum(
+                ShapelyPolygon([(w.real, w.imag) for w in (p, zr[a], zr[c], zr[b])]).area
+                for p, a, c, b in kites
+            )
+            if not cut.is_valid or abs(cut.area + kite_area - outline.area) > 1e-9 * outline.area:
+                continue
+            try:
+                lay = _cut_layout(zr, frozenset(rigid), tuple(kites), frozenset(exact))
+            except BlockLayoutError as exc:
+                if "would be needed" in exc.args[0]:
+                    return None  # too many corners for the search, whatever the kites
+                continue
+            return _renumber(lay, z, np.asarray(owner, dtype=np.int64), tips)
+    return None
+
+
+def _renumber(
+    lay: BlockLayout, z: NDArray[np.complex128], owner: NDArray[np.int64], tips: NDArray[np.int64]
+) -> BlockLayout:
+    """A kite layout (points: the cut polygon's vertices, whose original index is ``owner`` or
+    -1 for a kite point, then the other layout points, among them the tip points) renumbered
+    so that ``points[:n]`` are ``z``."""
+    n, m = len(z), len(owner)
+    P = len(lay.points)
+    new = np.full(P, -1, dtype=np.int64)
+    kept = owner >= 0
+    new[:m][kept] = owner[kept]
+    for i in tips.tolist():  # the tip points were appended as exact copies of the vertices
+        k = m + int(np.flatnonzero(lay.points[m:] == z[i])[0])
+        new[k] = i
+    rest = np.flatnonzero(new < 0)
+    new[rest] = n + np.arange(len(rest))
+    pts = np.empty(n + len(rest), dtype=np.complex128)
+    pts[new] = lay.points
+    pts[:n] = z  # exactly the polygon's vertices
+    cells = new[lay.cells]
+    return BlockLayout(
+        polygon=z,
+        points=pts,
+        cuts=lay.cuts,
+        faces=tuple(new[f] for f in lay.faces),
+        cells=cells,
+        tips=tips,
+        split=lay.split,
+        rounds=lay.rounds,
+        tees=lay.tees,
+        angles=cell_angles(pts[cells]),
+        kind=lay.kind,
+        kites=True,
     )
 
 
@@ -987,8 +1158,12 @@ def _search(
     has_slot: NDArray[np.bool_],
     diam: float,
     problems: list[str],
+    rigid: frozenset[int] = frozenset(),
+    kites: tuple[tuple[complex, int, int, int], ...] = (),
+    exact: frozenset[int] = frozenset(),
 ) -> BlockLayout | None:
-    """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`)."""
+    """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
+    ``rigid``, ``kites`` and ``exact`` as in :func:`_cut_layout`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     checkpoint()
@@ -1012,6 +1187,7 @@ def _search(
         pm[tips] = True
         own = np.zeros(len(P), dtype=bool)
         own[:n] = ~has_slot & ~tip_mask
+        own[list(exact)] = True  # a kite's inner point: its two parts are exactly 120°
         faces = []
         wrong = []
         for fi, f in enumerate(faces_raw):
@@ -1023,15 +1199,33 @@ def _search(
             ok = np.where(pm[f], a > 0, (a >= ANGLE_MIN + m) & (a <= ANGLE_MAX - m))
             if not np.all(ok) or len(f) > 6 or len(f) < 3:
                 wrong.append(fi)
+            elif rigid and len(f) != 4 and _on_rigid(f, rigid, n):
+                wrong.append(fi)  # its split would put a point on a kite side
         if not wrong:
             if all(len(f) == 4 for f in faces):
                 cells = np.array(faces, dtype=np.int64)
                 X, split = P, False
             else:
-                X, cells, wrong = _split_cells(P, faces, pm, own)
+                # a quad face on a kite side stays whole: a split would put a point there
+                whole = [k for k, f in enumerate(faces) if len(f) == 4 and _on_rigid(f, rigid, n)]
+                rest = [k for k in range(len(faces)) if k not in whole]
+                X, cells, wrong = _split_cells(P, [faces[k] for k in rest], pm, own)
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
-                    X, cells, wrong = _split_cells(P, faces, pm, own, margin=-ANGLE_TOL)
+                    X, cells, wrong = _split_cells(
+                        P, [faces[k] for k in rest], pm, own, margin=-ANGLE_TOL
+                    )
+                wrong = [rest[k] for k in wrong]
+                if whole:
+                    cells = np.concatenate([cells, np.array([faces[k] for k in whole])])
                 split = True
+            if not wrong and kites:
+                # the tip points after the layout's points, the kites among its cells
+                first = len(X)
+                X = np.concatenate([X, np.array([k[0] for k in kites], dtype=np.complex128)])
+                kc = [(first + q, a, c, b) for q, (_, a, c, b) in enumerate(kites)]
+                cells = np.concatenate([cells, np.array(kc, dtype=np.int64)])
+                pm = np.concatenate([pm, np.zeros(len(X) - len(pm), dtype=bool)])
+                pm[first:] = True
             if not wrong:
                 fixed = _resolve_hanging(X, cells, pm)
                 if fixed is None:
@@ -1068,6 +1262,14 @@ def _search(
     return None
 
 
+def _on_rigid(f: NDArray[np.int64], rigid: frozenset[int], n: int) -> bool:
+    """Whether the face ``f`` (point indices) has a side on a rigid polygon edge ``j -> j+1``."""
+    return any(
+        u < n and v < n and (v - u) % n == 1 and u in rigid
+        for u, v in zip(f.tolist(), np.roll(f, -1).tolist())
+    )
+
+
 def mesh_blocks(
     polygon: ArrayLike, size: float | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement | None]:
@@ -1095,7 +1297,7 @@ def mesh_blocks(
     if not (h > 0 and math.isfinite(h)):
         raise ValueError(f"size must be a positive finite length, got {size!r}")
     try:
-        lay = block_layout(z)
+        lay = block_layout(z, h)
     except BlockLayoutError as exc:
         # no straight cuts close: the polygon as one corridor (strokes, round shapes with two
         # ends), else a collar around a lattice core (round and dense outlines)

@@ -260,7 +260,12 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         )
         print(
             f"block layout: {what}, {lay.n_cells} blocks"
-            + (f", {len(lay.tips)} corners below 60° kept whole" if len(lay.tips) else "")
+            + (
+                f", {len(lay.tips)} corner{'s' if len(lay.tips) > 1 else ''} below 60° kept "
+                + ("whole in a tip kite" if lay.kites else "whole")
+                if len(lay.tips)
+                else ""
+            )
         )
     if result.fallback:
         print(f"note: {result.fallback}")

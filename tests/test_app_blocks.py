@@ -13,7 +13,8 @@ from quadmesh import MeshOptions, mesh_polygon, render
 from quadmesh.examples import load_example
 from quadmesh.polygon import validate_polygon
 from tests.helpers import L_SHAPE, require_pipeline
-from tests.test_app import assert_angles_ok, click, press, tick
+from tests.test_app import assert_angles_ok, click, keys, press, tick
+from tests.test_blocks import TWO_TIPS
 
 
 def _segments(part) -> np.ndarray:
@@ -105,6 +106,22 @@ def _load_example(win, name: str) -> np.ndarray:
     verts = load_example(name)
     assert len(win.editor.points) == len(verts) and win.editor.closed
     return verts
+
+
+def _type_polygon(win, qtbot, verts: np.ndarray) -> None:
+    """Edit ▸ Enter coordinates… (Ctrl+K): type one "x y" line per vertex and press OK."""
+    keys(qtbot, win, "Ctrl+K")
+    dlg = win.coordinates_dialog
+    qtbot.waitUntil(dlg.isVisible, timeout=3000)
+    dlg.edit.selectAll()
+    qtbot.keyClick(dlg.edit, Qt.Key.Key_Delete)
+    for k, (x, y) in enumerate(verts):
+        if k:
+            qtbot.keyClick(dlg.edit, Qt.Key.Key_Return)
+        qtbot.keyClicks(dlg.edit, f"{float(x)!r} {float(y)!r}")
+    press(qtbot, dlg.buttons.button(dlg.buttons.StandardButton.Ok))
+    qtbot.waitUntil(lambda: not dlg.isVisible(), timeout=3000)
+    assert win.editor.closed and len(win.editor.points) == len(verts)
 
 
 def _choose_blocks_by_mouse(win, qtbot) -> None:
@@ -218,12 +235,13 @@ def test_blocks_chosen_with_the_keyboard_mesh_layer_and_pick(main_window, qtbot)
 
 @pytest.mark.gui
 def test_no_layout_falls_back_and_says_why(main_window, qtbot):
-    """Blocks chosen with the mouse on a right triangle with a 10° corner (no straight cuts and
-    no collar close around it): the run falls back to the paper's construction, the Mesh panel
-    and the status bar say why, and the paper's stages are drawn as usual."""
+    """Blocks chosen with the mouse on a typed triangle with two 10° corners (no straight cuts,
+    ladder or collar close around it): the run falls back to the paper's construction, the Mesh
+    panel and the status bar say why, and the paper's stages are drawn as usual."""
     require_pipeline()
     win = main_window
-    verts = _load_example(win, "right_triangle_10deg")
+    verts = TWO_TIPS
+    _type_polygon(win, qtbot, verts)
     _choose_blocks_by_mouse(win, qtbot)
     assert win.block_size_spin.isEnabled()
     _mesh_by_click(win, qtbot)

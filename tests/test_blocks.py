@@ -28,6 +28,8 @@ from quadmesh.thin.corridor import mesh_corridor
 from tests.test_strict import independent_check
 
 L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
+#: an isosceles triangle with two 10° corners and a 160° apex: no block layout closes
+TWO_TIPS = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.5 * np.tan(np.radians(10.0))]])
 
 #: bundled examples whose block layout closes (no fallback), with their coarse block counts
 CLOSING = {
@@ -44,6 +46,8 @@ CLOSING = {
     "hexagon": 6,
     "triangle": 3,
     "equilateral_triangle": 3,
+    "right_triangle_10deg": 3,
+    "corner_5deg": 7,
     "bent_channel": 3,
     "channel_20": 1,
     "glyph_s": 45,
@@ -111,22 +115,53 @@ def test_size_controls_the_count_and_edge_lengths(tmp_path: Path) -> None:
     assert got["n_quads"] == 3 * 18 * 18
 
 
-def test_tip_block_stays_whole() -> None:
-    verts = load_example("triangle")  # one corner of 48.8°
+@pytest.mark.parametrize("name", ["triangle", "right_triangle_10deg", "corner_5deg"])
+def test_tip_stays_whole_in_a_small_kite(name: str) -> None:
+    """A corner below 60° is cut off by a kite about one block size long: the tip's corner in
+    the final mesh is the polygon's own angle, in one quad about the block size long,
+    whose other three corners are new and in [60°, 120°]."""
+    verts = load_example(name)  # corners of 48.8°, 10°, 5°
     res = mesh_polygon(verts, MeshOptions(method="blocks"))
     lay = res.blocks
-    assert len(lay.tips) == 1
-    # the tip's corner in the final mesh is the polygon's own angle, in one quad
+    assert len(lay.tips) == 1 and lay.kites and res.verification.ok
     tip = lay.polygon[lay.tips[0]]
     v = res.mesh.vertices[:, 0] + 1j * res.mesh.vertices[:, 1]
     k = int(np.argmin(np.abs(v - tip)))
-    assert np.sum(res.mesh.quads == k) == 1
-    assert res.verification.ok
+    (row,) = np.nonzero(np.any(res.mesh.quads == k, axis=1))[0]
+    q = v[res.mesh.quads[row]]
+    h = default_block_size(lay.polygon)
+    # its edge points are h from the tip, its inner point at most 1.2 h (ρ = h sin a / sin(c/2))
+    assert np.abs(q - tip).max() <= 1.2 * h
+    ang = cell_angles(q[None, :])[0]
+    j = int(np.argmin(np.abs(q - tip)))
+    others = np.delete(ang, j)
+    assert ang[j] < 60.0 and np.all(others >= 60.0) and np.all(others <= 120.0 + 1e-9)
+
+
+@pytest.mark.parametrize("theta", np.linspace(0.5, 59.5, 60))
+def test_tip_kite_corners_for_every_tip_angle(theta: float) -> None:
+    """The kite cut off a tip of angle θ < 60° at each admissible inner corner c has corners
+    θ, a, c, a with a = 180° − θ/2 − c/2, and leaves the rest of the polygon the corners
+    180° − a at its two edge points and 360° − c inside: all new corners in [60°, 120°]."""
+    from quadmesh.blocks import KITE_INNER, _tip_kite
+
+    t = np.radians(theta)
+    z = np.array([0.0, 3.0, 3.0 + 3.0j * np.tan(t) * 1.0])  # corner θ at 0, 90° at 3
+    z[2] = 3.0 * np.exp(1j * t)
+    lo = max(60.5, 121.0 - theta)
+    for c in KITE_INNER:
+        c_used = c if c == 120.0 else min(max(c, lo), 119.5)
+        A, C, B = _tip_kite(z, 0, theta, 0.5, c_used)
+        ang = cell_angles(np.array([[z[0], A, C, B]]))[0]
+        a = 180.0 - theta / 2 - c_used / 2
+        np.testing.assert_allclose(ang, [theta, a, c_used, a], atol=1e-9)
+        assert 60.0 <= a <= 120.0 and 60.0 <= 180.0 - a <= 120.0
+        assert 60.0 <= c_used <= 120.0 and 240.0 <= 360.0 - c_used <= 300.0
+        assert abs(A - 0.5) < 1e-12 and abs(B - 0.5 * np.exp(1j * t)) < 1e-12
 
 
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
-    verts = load_example("right_triangle_10deg")  # no straight cuts and no collar close
-    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    res = mesh_polygon(TWO_TIPS, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
     assert res.pieces and res.verification.ok
@@ -203,7 +238,7 @@ def test_benchmark_reports_block_closure() -> None:
     from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
 
     ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
-    fb = _mesh_vertices(load_example("right_triangle_10deg"), MeshOptions(method="blocks"))
+    fb = _mesh_vertices(TWO_TIPS, MeshOptions(method="blocks"))
     assert ok["status"] == fb["status"] == "meshed"
     assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
     base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
