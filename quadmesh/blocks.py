@@ -959,12 +959,14 @@ def _cut_layout(
     rigid: frozenset[int] = frozenset(),
     kites: tuple[tuple[complex, int, int, int], ...] = (),
     exact: frozenset[int] = frozenset(),
+    seconds: float = SEARCH_SECONDS,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` (tip point, then the indices in ``z`` of its kite's other three corners, counter-
     clockwise) the tip points are appended to the layout's points and the kites to its cells;
     no cut ends inside a ``rigid`` edge of ``z`` (a kite side) and no split crosses a kite;
-    an ``exact`` corner (a kite's inner point at 240°) is cut along its bisector only."""
+    an ``exact`` corner (a kite's inner point at 240°) is cut along its bisector only; the
+    rounds of the search stop after ``seconds``."""
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
@@ -1010,7 +1012,9 @@ def _cut_layout(
             tee_rays = _t_variants(z, rays, diam, bare=bare)
         pool = rays + (tee_rays if tees else [])
         checkpoint()
-        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems, rigid, kites, exact)
+        lay = _search(
+            z, pool, slots, tips, tip_mask, has_slot, diam, problems, rigid, kites, exact, seconds
+        )
         if lay is not None:
             return lay
     raise BlockLayoutError(
@@ -1026,7 +1030,7 @@ KITE_INNER = (120.0, 112.0, 96.0, 80.0)
 #: a tip kite reaches at most this fraction of each edge at the tip
 KITE_EDGE_SHARE = 0.4
 #: time for the layout searches with tip kites before the tips are kept whole instead
-KITE_SECONDS = 4.0
+KITE_SECONDS = 1.5
 
 
 def _tip_kite(
@@ -1069,7 +1073,8 @@ def _kite_layout(
     deadline = time.perf_counter() + KITE_SECONDS
     for scale in (1.0, 0.5):
         for c_pref in KITE_INNER:
-            if time.perf_counter() > deadline:
+            left = deadline - time.perf_counter()
+            if left <= 0:
                 return None
             ring: list[complex] = []
             owner: list[int] = []  # original vertex index, or -1 for a kite point
@@ -1104,7 +1109,9 @@ def _kite_layout(
             if not cut.is_valid or abs(cut.area + kite_area - outline.area) > 1e-9 * outline.area:
                 continue
             try:
-                lay = _cut_layout(zr, frozenset(rigid), tuple(kites), frozenset(exact))
+                lay = _cut_layout(
+                    zr, frozenset(rigid), tuple(kites), frozenset(exact), min(left, SEARCH_SECONDS)
+                )
             except BlockLayoutError as exc:
                 if "would be needed" in exc.args[0]:
                     return None  # too many corners for the search, whatever the kites
@@ -1161,6 +1168,7 @@ def _search(
     rigid: frozenset[int] = frozenset(),
     kites: tuple[tuple[complex, int, int, int], ...] = (),
     exact: frozenset[int] = frozenset(),
+    seconds: float = SEARCH_SECONDS,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
     ``rigid``, ``kites`` and ``exact`` as in :func:`_cut_layout`)."""
@@ -1170,12 +1178,12 @@ def _search(
     if len(bad) > MAX_CONFLICTS:
         problems.append(f"{len(bad):,} pairs of candidate cuts conflict")
         return None
-    deadline = time.perf_counter() + SEARCH_SECONDS
+    deadline = time.perf_counter() + seconds
     nogoods: list[list[int]] = []
     for rnd in range(1, MAX_ROUNDS + 1):
         left = deadline - time.perf_counter()
         if left <= 0:
-            problems.append(f"no layout within {SEARCH_SECONDS:g} s of search")
+            problems.append(f"no layout within {seconds:.3g} s of search")
             return None
         chosen = _solve(rays, slots, bad, nogoods, left) if slots else []
         checkpoint()
