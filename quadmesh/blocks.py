@@ -23,6 +23,12 @@ The cuts:
   cannot be split about a centre with angles in range is excluded by a new constraint and the
   search runs again.
 
+A corner below 60° (a *tip*) is first cut off by a *tip kite* about one block size long (the
+tip, a point on each of its edges, a point on its bisector; :func:`_tip_kite`): the rest of the
+polygon gets a reflex corner of at least 240° there, cut like any other, and no cut may end on
+the kite, the one cell that is never split.  If no layout with kites closes, the tips' blocks
+are kept whole instead.
+
 Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are complex128.
 """
 
