@@ -488,7 +488,9 @@ class MainWindow(QMainWindow):
         self.error_box = ErrorBox()
         mf.addRow(self.error_box)
         self.mesh_scroll = _scrolled(mesh, 290)
-        mesh_dock = self._add_dock("Mesh", self.mesh_scroll, Qt.RightDockWidgetArea)
+        mesh_dock = self.mesh_dock = self._add_dock(
+            "Mesh", self.mesh_scroll, Qt.RightDockWidgetArea
+        )
 
         # information
         info = QWidget()
@@ -511,7 +513,7 @@ class MainWindow(QMainWindow):
         il.addWidget(self.quad_label)
         il.addStretch(1)
         scroll = self.info_scroll = _scrolled(info, 300)
-        info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
+        info_dock = self.info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
         self.resizeDocks([mesh_dock, info_dock], [mesh.sizeHint().height(), 400], Qt.Vertical)
 
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
@@ -1382,6 +1384,7 @@ class MainWindow(QMainWindow):
         ``ErrorBox.max_lines`` lines), its first line in the status bar, and a message box."""
         self.last_error = message
         self.error_box.set_message(message)
+        self._make_room_for_error()
         first = message.splitlines()[0] if message else ""
         if first != message:
             first += "  (whole message in the Mesh panel)"
@@ -1390,6 +1393,18 @@ class MainWindow(QMainWindow):
             box = QMessageBox(QMessageBox.Warning, "quadmesh", message, parent=self)
             box.setAttribute(Qt.WA_DeleteOnClose)
             box.open()
+
+    def _make_room_for_error(self) -> None:
+        """Give the Mesh panel the height its contents (now with the error box) ask for, up
+        to two thirds of the dock column (the Information panel keeps the rest), and scroll
+        the error box into view."""
+        inner = self.mesh_scroll.widget()
+        inner.adjustSize()
+        total = self.mesh_dock.height() + self.info_dock.height()
+        want = min(inner.sizeHint().height() + 40, 2 * total // 3)
+        if want > self.mesh_dock.height():
+            self.resizeDocks([self.mesh_dock, self.info_dock], [want, total - want], Qt.Vertical)
+        self.mesh_scroll.ensureWidgetVisible(self.error_box)
 
     def _clear_error(self) -> None:
         """Forget the last failure: error box, status bar message and a "failed" progress bar."""

@@ -136,6 +136,8 @@ def test_unsolved_map_shows_the_estimate_it_judged(main_window, qtbot):
         press(qtbot, win.mesh_button)
     assert win.result is None and win.progress_bar.format() == "failed"
     assert win.last_error.startswith("[conformal]") and "crowding" in win.last_error
+    assert win.error_box.toPlainText() == win.last_error
+    assert not win.error_box.visibleRegion().isEmpty()  # scrolled into view, not covered
     partial = win.partial
     assert partial.failed_piece == 0 and partial.pieces == ()
     assert win.piece_spin.suffix() == " (failed, no map)" and win.piece_spin.maximum() == 0
