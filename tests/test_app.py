@@ -611,6 +611,31 @@ def test_views_render_only_on_change(main_window, qtbot):
     assert renders == n
 
 
+def test_no_render_while_idle_or_hovering_with_a_mesh(meshed, qtbot):
+    """With a mesh on screen every render of either view is counted at the renderer (whatever
+    starts it): an untick redraws the plane view only; then 1.2 s idle and the mouse moving
+    over both views (the cursor readout follows it) draw nothing."""
+    win = meshed
+    counts = {"plane": 0, "disk": 0}
+    for name, v in (("plane", win.plane), ("disk", win.disk)):
+        v.plotter.renderer.AddObserver(
+            "StartEvent", lambda *_, n=name: counts.__setitem__(n, counts[n] + 1)
+        )
+    qtbot.wait(300)
+    counts.update(plane=0, disk=0)
+    tick(qtbot, win.layer_panel.checkboxes["crosscuts"])
+    assert counts["plane"] >= 1 and counts["disk"] == 0
+    counts.update(plane=0, disk=0)
+    qtbot.wait(1200)
+    for view in (win.plane, win.disk):
+        w, h = view.plotter.width(), view.plotter.height()
+        for k in range(5):
+            qtbot.mouseMove(view.plotter, QPoint(w // 3 + 20 * k, h // 2 + 10 * k))
+            qtbot.wait(20)
+    assert win.coord_label.text(), "no cursor readout"
+    assert counts == {"plane": 0, "disk": 0}, counts
+
+
 def test_worker_runs_disk_construction_and_cancels(main_window, qtbot):
     from app.worker import JobRunner
     from quadmesh.disk.region import RegionW, build_region
