@@ -118,14 +118,6 @@ def answer_file_dialog(qtbot, name: str, name_filter: str | None = None, record=
     return DialogAnswer(QFileDialog, act)
 
 
-def menu_action(win, text: str):
-    """The QAction of a menu entry (matched without '&' and '…')."""
-    for a in win.findChildren(type(win.menuBar().actions()[0])):
-        if a.text().replace("&", "").rstrip("…") == text:
-            return a
-    raise AssertionError(f"no menu entry {text!r}")
-
-
 def pixel_variance(path) -> float:
     from PySide6.QtGui import QImage
 
