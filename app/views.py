@@ -218,6 +218,7 @@ class View2D(QWidget):
         self._settle.timeout.connect(self.end_interaction)
         self._stale = False  # heavy disk parts lag behind the transform
         self._light_drawn = False  # a light frame was drawn since begin_interaction
+        self._samples = 0  # multisamples of the full-detail frames (kept while light)
         self.plotter.renderer.AddObserver("StartEvent", self._on_render_start)
         self._filter = _MouseFilter(self)
         self.plotter.installEventFilter(self._filter)
@@ -349,6 +350,11 @@ class View2D(QWidget):
         if self.interacting or not self.has_heavy_parts():
             return
         self.interacting = True
+        # light frames also skip multisampling: with Mesa's software OpenGL 4x MSAA costs more
+        # than the light geometry itself (an empty 370x820 view: 21 ms with it, 0.5 ms without)
+        rw = self.plotter.ren_win
+        self._samples = rw.GetMultiSamples()
+        rw.SetMultiSamples(0)
         for st in self.layers.values():
             self._show(st)
 
@@ -359,6 +365,7 @@ class View2D(QWidget):
         if not self.interacting:
             return
         self.interacting = False
+        self.plotter.ren_win.SetMultiSamples(self._samples)
         for st in self.layers.values():
             if self._stale:
                 self._transform_state(st)

@@ -47,17 +47,21 @@ def test_light_stand_in_of_the_final_mesh(heavy):
 
 
 def test_interaction_swaps_heavy_parts_for_light_ones(heavy, qtbot):
-    """begin/end_interaction show the stand-ins instead of the heavy parts and back; a layer
-    toggle draws light at once and full detail after LOD_SETTLE_MS."""
+    """begin/end_interaction show the stand-ins (without multisampling) instead of the heavy
+    parts and back; a layer toggle draws light at once and full detail after LOD_SETTLE_MS."""
     import app.views
 
     v = heavy.plane
     st = v.layers["final_mesh"]
     assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
+    samples = v.plotter.ren_win.GetMultiSamples()
+    assert samples > 0  # full-detail frames are anti-aliased
     v.begin_interaction()
     assert _visible(st.actors) == [False, False] and _visible(st.light_actors) == [True]
+    assert v.plotter.ren_win.GetMultiSamples() == 0  # light frames are not
     v.end_interaction()
     assert not v.interacting and _visible(st.actors) == [True, True]
+    assert v.plotter.ren_win.GetMultiSamples() == samples
     tick(qtbot, heavy.layer_panel.checkboxes["crosscuts"])  # unticked by mouse
     assert v.interacting and _visible(st.light_actors) == [True]
     qtbot.waitUntil(lambda: not v.interacting, timeout=app.views.LOD_SETTLE_MS + 2000)
