@@ -345,13 +345,15 @@ class View2D(QWidget):
 
     # ------------------------------------------------------------------ interaction detail
     def begin_interaction(self) -> None:
-        """Draw heavy parts light (see :func:`light_stand_in`) until :meth:`end_interaction`."""
+        """Draw heavy parts light (see :func:`light_stand_in`) and every frame without
+        multisampling until :meth:`end_interaction`."""
         self._settle.stop()
-        if self.interacting or not self.has_heavy_parts():
+        if self.interacting:
             return
         self.interacting = True
-        # light frames also skip multisampling: with Mesa's software OpenGL 4x MSAA costs more
-        # than the light geometry itself (an empty 370x820 view: 21 ms with it, 0.5 ms without)
+        # with Mesa's software OpenGL 4x MSAA costs more than most geometry (an empty 370x820
+        # view: 21 ms with it, 0.5 ms without): frames while the user acts go without it, on
+        # small meshes too; the full-detail frame after the interaction has it again
         rw = self.plotter.ren_win
         self._samples = rw.GetMultiSamples()
         rw.SetMultiSamples(0)

@@ -605,8 +605,9 @@ def test_views_render_only_on_change(main_window, qtbot):
 
 def test_no_render_while_idle_or_hovering_with_a_mesh(meshed, qtbot):
     """With a mesh on screen every render of either view is counted at the renderer (whatever
-    starts it): an untick redraws the plane view only; then 1.2 s idle and the mouse moving
-    over both views (the cursor readout follows it) draw nothing."""
+    starts it): an untick redraws the plane view only (a quick frame, then the full-detail
+    one); then 1.2 s idle and the mouse moving over both views (the cursor readout follows
+    it) draw nothing."""
     win = meshed
     counts = {"plane": 0, "disk": 0}
     for name, v in (("plane", win.plane), ("disk", win.disk)):
@@ -617,6 +618,9 @@ def test_no_render_while_idle_or_hovering_with_a_mesh(meshed, qtbot):
     counts.update(plane=0, disk=0)
     tick(qtbot, win.layer_panel.checkboxes["crosscuts"])
     assert counts["plane"] >= 1 and counts["disk"] == 0
+    # the quick frame of the toggle, then one full-detail frame once the toggling stopped
+    qtbot.waitUntil(lambda: not win.plane.interacting, timeout=3000)
+    assert counts["disk"] == 0
     counts.update(plane=0, disk=0)
     qtbot.wait(1200)
     for view in (win.plane, win.disk):
