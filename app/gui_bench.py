@@ -2,7 +2,7 @@
 repeats (run under an X server, e.g. ``xvfb-run``; not a test)::
 
     PYTHONPATH=. xvfb-run -a -s "-screen 0 1280x1024x24" python -m app.gui_bench \\
-        --example l_shape --example star_100 --example noisy_circle_1000
+        --example dodecagon --example star_100 --example noisy_circle_1000
 
 For each polygon (meshed here first, the time is printed) it shows the result in the real
 window and times, each as the median of ``--repeat`` runs including the render:
@@ -12,12 +12,15 @@ the disk view (an automorphism applied to the disk layers).  Toggles, colour swi
 steps and drags draw layers with more than ``app.views.LOD_CELLS`` cells light (surfaces
 vertex-clustered, dense wireframes left out) and full detail once the user stops (the release
 of the drag; 0.25 s after the last toggle or zoom step): "full ms" is that full-detail frame
-of the plane view.
+of the plane view. "load" is the 1-minute load average after the row's operations (the
+benchmark itself counts about 1): Mesa's software OpenGL renders on every core, so other
+processes slow each frame down.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -77,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--example", action="append", default=[], help="bundled example name")
     p.add_argument("--repeat", type=int, default=5)
     args = p.parse_args(argv)
-    names = args.example or ["l_shape", "star_100"]
+    names = args.example or ["dodecagon", "star_100", "noisy_circle_1000"]
 
     from PySide6.QtWidgets import QApplication
 
@@ -94,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"{'polygon':<20} {'quads':>9} {'mesh s':>7} {'show s':>7} "
         f"{'toggle ms':>10} {'colour ms':>10} {'zoom ms':>8} {'drag ms':>8} {'release ms':>10} "
-        f"{'full ms':>8}"
+        f"{'full ms':>8} {'load':>5}"
     )
     for name in names:
         t = time.perf_counter()
@@ -106,10 +109,11 @@ def main(argv: list[str] | None = None) -> int:
         app.processEvents()
         t_show = time.perf_counter() - t
         ms = time_operations(win, app, args.repeat)
+        load = os.getloadavg()[0]  # other processes slow software OpenGL down: say how busy
         print(
             f"{name:<20} {r.mesh.n_quads:>9} {t_mesh:>7.1f} {t_show:>7.2f} {ms['toggle']:>10.1f} "
             f"{ms['colour']:>10.1f} {ms['zoom']:>8.1f} {ms['drag']:>8.1f} {ms['release']:>10.1f} "
-            f"{ms['full']:>8.1f}",
+            f"{ms['full']:>8.1f} {load:>5.2f}",
             flush=True,
         )
     win.shutdown()

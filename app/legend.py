@@ -94,6 +94,7 @@ class LegendPanel(QGroupBox):
         self.setObjectName("legend")
         self._grid = QGridLayout(self)
         self._grid.setContentsMargins(6, 4, 6, 4)
+        self._grid.setColumnStretch(1, 1)
         self.entries: list[tuple[str, str, str]] = []
         self.hide()
 
@@ -114,6 +115,7 @@ class LegendPanel(QGroupBox):
             sw.setToolTip(f"{color} ({layer.replace('_', ' ')} layer)")
             self._grid.addWidget(sw, row, 0)
             text = QLabel(label)
+            text.setWordWrap(True)  # a long label wraps inside the narrow Layers dock
             text.setObjectName(f"legend_{layer}_{row}")
             self._grid.addWidget(text, row, 1)
         self.setVisible(bool(self.entries))

@@ -488,7 +488,9 @@ class MainWindow(QMainWindow):
         self.error_box = ErrorBox()
         mf.addRow(self.error_box)
         self.mesh_scroll = _scrolled(mesh, 290)
-        mesh_dock = self._add_dock("Mesh", self.mesh_scroll, Qt.RightDockWidgetArea)
+        mesh_dock = self.mesh_dock = self._add_dock(
+            "Mesh", self.mesh_scroll, Qt.RightDockWidgetArea
+        )
 
         # information
         info = QWidget()
@@ -511,7 +513,7 @@ class MainWindow(QMainWindow):
         il.addWidget(self.quad_label)
         il.addStretch(1)
         scroll = self.info_scroll = _scrolled(info, 300)
-        info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
+        info_dock = self.info_dock = self._add_dock("Information", scroll, Qt.RightDockWidgetArea)
         self.resizeDocks([mesh_dock, info_dock], [mesh.sizeHint().height(), 400], Qt.Vertical)
 
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
@@ -1269,6 +1271,28 @@ class MainWindow(QMainWindow):
         """The thick pieces of the failed run on screen (empty when there is none)."""
         return tuple(getattr(self.partial, "pieces", ()) or ())
 
+    def _partial_estimate(self) -> tuple[np.ndarray, str] | None:
+        """The failing piece's prevertex placement when its conformal map could not be solved
+        (unit complex, and what it is), else None."""
+        pre = getattr(self.partial, "failed_prevertices", None)
+        if pre is None:
+            return None
+        return np.asarray(pre, dtype=np.complex128), str(self.partial.failed_prevertices_kind)
+
+    def _partial_slots(self) -> int:
+        """How many pieces the piece spin box steps through for the failed run on screen: the
+        pieces whose map was solved, and last the failing piece without a map when its
+        prevertex placement is known."""
+        return len(self._partial_pieces()) + (self._partial_estimate() is not None)
+
+    def _estimate_layer(self) -> LayerGeometry:
+        """The prevertices layer of a failing piece without a conformal map: the prevertex
+        placement its failed solve had (harmonic-measure estimate, last iterate or rejected
+        solution, as its label says), on the unit circle."""
+        pre, kind = self._partial_estimate()  # type: ignore[misc]
+        part = points_part(pre, color="#e00000", point_size=11.0, label=kind, disk=True)
+        return LayerGeometry("prevertices", "disk", [part])
+
     def _show_partial(self) -> None:
         """Draw the stages a failed run computed — its thick pieces, crosscuts and the pieces'
         pushed-forward disk meshes, the failing piece outlined in red — as an overlay of the
@@ -1283,11 +1307,15 @@ class MainWindow(QMainWindow):
                 continue
         failed = getattr(self.partial, "failed_piece", None)
         thick = getattr(self.partial.decomposition, "thick", ())
-        if failed is not None and 0 <= failed < len(thick):
-            z = np.asarray(thick[failed].z, dtype=np.complex128) + complex(self.partial.origin)
-            parts.append(
-                line_part([z], color="#e00000", line_width=7.0, closed=True, label="failed piece")
-            )
+        others = tuple(getattr(self.partial, "other_failed", ()))
+        for k in (failed, *others):  # every piece the message names, outlined in red
+            if k is not None and 0 <= k < len(thick):
+                z = np.asarray(thick[k].z, dtype=np.complex128) + complex(self.partial.origin)
+                parts.append(
+                    line_part(
+                        [z], color="#e00000", line_width=7.0, closed=True, label="failed piece"
+                    )
+                )
         geo = LayerGeometry("partial", "plane", parts) if parts else None
         self.plane.set_overlay("partial", geo)
         self._update_fill()
@@ -1297,12 +1325,15 @@ class MainWindow(QMainWindow):
         it was built, the disk mesh), starting with the piece that failed; the piece spin box
         then steps through them."""
         pieces = self._partial_pieces()
-        if not pieces:
+        slots = self._partial_slots()
+        if not slots:
             return
         failed = getattr(self.partial, "failed_piece", None)
         at = [k for k, p in enumerate(pieces) if p.index == failed]
+        if not at and slots > len(pieces):  # the failing piece has no map: its estimate
+            at = [len(pieces)]
         self.piece_spin.blockSignals(True)
-        self.piece_spin.setRange(0, len(pieces) - 1)
+        self.piece_spin.setRange(0, slots - 1)
         self.piece_spin.setValue(at[0] if at else 0)
         self.disk_piece = self.piece_spin.value()
         self.piece_spin.blockSignals(False)
@@ -1313,7 +1344,7 @@ class MainWindow(QMainWindow):
     def _disk_source(self) -> Any:
         """What the disk view shows: a failed run's partial stages while they are on screen,
         else the result."""
-        return self.partial if self._partial_pieces() else self.result
+        return self.partial if self._partial_slots() else self.result
 
     def _mark_piece_spin(self) -> None:
         """Say in the spin box which piece failed (failed runs only)."""
@@ -1321,7 +1352,8 @@ class MainWindow(QMainWindow):
         failed = getattr(self.partial, "failed_piece", None)
         k = self.disk_piece
         bad = bool(pieces) and 0 <= k < len(pieces) and pieces[k].index == failed
-        self.piece_spin.setSuffix(" (failed)" if bad else "")
+        no_map = k == len(pieces) and self._partial_estimate() is not None
+        self.piece_spin.setSuffix(" (failed, no map)" if no_map else " (failed)" if bad else "")
 
     def _mark_problem(self, message: str) -> None:
         """Red markers on the plane view at every "(x, y)" point the failure message names
@@ -1352,6 +1384,7 @@ class MainWindow(QMainWindow):
         ``ErrorBox.max_lines`` lines), its first line in the status bar, and a message box."""
         self.last_error = message
         self.error_box.set_message(message)
+        self._make_room_for_error()
         first = message.splitlines()[0] if message else ""
         if first != message:
             first += "  (whole message in the Mesh panel)"
@@ -1361,13 +1394,25 @@ class MainWindow(QMainWindow):
             box.setAttribute(Qt.WA_DeleteOnClose)
             box.open()
 
+    def _make_room_for_error(self) -> None:
+        """Give the Mesh panel the height its contents (now with the error box) ask for, up
+        to two thirds of the dock column (the Information panel keeps the rest), and scroll
+        the error box into view."""
+        inner = self.mesh_scroll.widget()
+        inner.adjustSize()
+        total = self.mesh_dock.height() + self.info_dock.height()
+        want = min(inner.sizeHint().height() + 40, 2 * total // 3)
+        if want > self.mesh_dock.height():
+            self.resizeDocks([self.mesh_dock, self.info_dock], [want, total - want], Qt.Vertical)
+        self.mesh_scroll.ensureWidgetVisible(self.error_box)
+
     def _clear_error(self) -> None:
         """Forget the last failure: error box, status bar message and a "failed" progress bar."""
         if self.last_error is None and self.error_box.isHidden():
             return
         self.last_error = None
         self.error_box.clear_message()
-        had_pieces = bool(self._partial_pieces())
+        had_pieces = bool(self._partial_slots())
         self.partial = None
         if had_pieces:  # the disk view goes back to the result (if any)
             self.piece_spin.blockSignals(True)
@@ -1435,11 +1480,24 @@ class MainWindow(QMainWindow):
         pieces = self._partial_pieces()
         if pieces and not (0 <= piece < len(pieces) and pieces[piece].disk is not None):
             piece = -1  # no disk mesh: no region kinds to explain
-        self.legend.set_entries(legend_entries(shown, visible, piece))
+        entries = legend_entries(shown, visible, piece)
+        est = self._partial_estimate()
+        if est is not None and "prevertices" in visible and self.disk_piece == len(pieces):
+            failed = self.partial.failed_piece
+            entries.append(("prevertices", f"piece {failed} prevertices: {est[1]}", "#e00000"))
+        self.legend.set_entries(entries)
 
     def _draw_disk_result(self) -> None:
         r = self._disk_source()
         self._mark_piece_spin()
+        if r is not None and r is self.partial and self.disk_piece >= len(self._partial_pieces()):
+            # the failing piece's map was not solved: only its prevertex placement exists
+            self.piece_spin.setEnabled(self._partial_slots() > 1)
+            for name in _RESULT_DISK:
+                self._put(
+                    self.disk, name, self._estimate_layer() if name == "prevertices" else None
+                )
+            return
         # nothing to step through without thick pieces (a block mesh, no result)
         self.piece_spin.setEnabled(r is not None and bool(r.pieces))
         for name in _RESULT_DISK:
@@ -1461,7 +1519,7 @@ class MainWindow(QMainWindow):
         self._forget_picked_quad()
         self.plane.clear_layers(_RESULT_PLANE)
         self.disk.clear_layers(_RESULT_DISK)
-        self.piece_spin.setEnabled(bool(self._partial_pieces()))
+        self.piece_spin.setEnabled(bool(self._partial_slots()))
         self._update_fill()
         self.info_label.setText(why)
         self.histogram.clear()

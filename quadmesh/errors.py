@@ -44,7 +44,11 @@ class PartialResult:
     ``disk`` mesh and its pushed-forward ``image`` (None where they were not built). Pieces
     whose map could not be solved are absent. ``failed_piece``: the index (in
     ``Decomposition.thick``) of the piece that failed, None when the failure is not one
-    piece's (a thin part, the final verification). ``thin`` is empty. Every layer of
+    piece's (a thin part, the final verification). ``failed_prevertices`` and
+    ``failed_prevertices_kind``: when the failing piece's map could not be solved, the
+    prevertex placement its :class:`ConformalMapError` carried (see there), else None and "".
+    ``other_failed``: the other pieces whose conformal map failed too (indices; the run
+    solves every piece's map before it stops). ``thin`` is empty. Every layer of
     :func:`quadmesh.render.build_layer` except ``thin_parts``, ``final_mesh`` and
     ``bad_quads`` can be drawn from it."""
 
@@ -55,12 +59,18 @@ class PartialResult:
         origin: complex = 0j,
         pieces: tuple = (),
         failed_piece: int | None = None,
+        failed_prevertices: object = None,
+        failed_prevertices_kind: str = "",
+        other_failed: tuple = (),
     ) -> None:
         self.polygon = polygon
         self.decomposition = decomposition
         self.origin = origin
         self.pieces: tuple = tuple(pieces)
         self.failed_piece = failed_piece
+        self.failed_prevertices = failed_prevertices
+        self.failed_prevertices_kind = failed_prevertices_kind
+        self.other_failed: tuple = tuple(other_failed)
         self.thin: tuple = ()
 
     @classmethod
@@ -71,12 +81,20 @@ class PartialResult:
         (or the error it was raised from) carries."""
         pieces: tuple = ()
         failed: int | None = None
+        pre: object = None
+        kind = ""
+        others: tuple = ()
         e: BaseException | None = exc
-        while e is not None and not (pieces and failed is not None):
+        while e is not None:
+            others = others or tuple(getattr(e, "other_failed", ()))
             pieces = pieces or tuple(getattr(e, "piece_stages", ()))
             failed = failed if failed is not None else getattr(e, "piece", None)
+            if pre is None and getattr(e, "prevertices", None) is not None:
+                pre, kind = e.prevertices, str(getattr(e, "prevertices_kind", ""))
             e = e.__cause__
-        return cls(polygon, decomposition, origin, pieces, failed)
+        if failed is None or any(p.index == failed for p in pieces):
+            pre, kind = None, ""  # the failing piece has a map: its own prevertices are shown
+        return cls(polygon, decomposition, origin, pieces, failed, pre, kind, others)
 
 
 class PolygonError(QuadmeshError, ValueError):
@@ -98,9 +116,18 @@ class DecompositionError(QuadmeshError):
 
 
 class ConformalMapError(QuadmeshError):
-    """The Schwarz–Christoffel map could not be computed to the required accuracy."""
+    """The Schwarz–Christoffel map could not be computed to the required accuracy.
+
+    ``prevertices``: where the failed solve placed the piece's prevertices, when it had a
+    placement (unit complex, in the piece's vertex order, the first at 1), else None;
+    ``prevertices_kind`` says which placement: the harmonic-measure estimate the crowding
+    check uses, the solver's last iterate, or a solution that failed its checks."""
 
     stage = "conformal"
+    prevertices: object = None
+    prevertices_kind: str = ""
+    #: the other thick pieces (indices) whose map failed too, when the message names several
+    other_failed: tuple = ()
 
 
 class DiskConstructionError(QuadmeshError):

@@ -284,13 +284,37 @@ def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, f
         raise
 
 
+def _no_maps(errors: list[ConformalMapError]) -> ConformalMapError:
+    """One error for the thick pieces whose conformal map failed: the first one's (and its
+    prevertex placement), naming the others too (``other_failed``: their piece indices)."""
+    first = errors[0]
+    if len(errors) == 1:
+        return first
+    text = "\n".join(f"{k + 1}. {e.args[0]}" for k, e in enumerate(errors))
+    err = ConformalMapError(
+        f"{len(errors)} parts of the polygon have no conformal map:\n{text}", piece=first.piece
+    )
+    err.prevertices, err.prevertices_kind = first.prevertices, first.prevertices_kind
+    err.other_failed = tuple(e.piece for e in errors[1:] if e.piece is not None)
+    err.__cause__ = first
+    return err
+
+
 def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float], kept: KeptStages):
     """The stages of :func:`_mesh_thick_and_thin`, keeping the pieces' work in ``kept``."""
     work: list[PieceWork] = kept.work
+    unmapped: list[ConformalMapError] = []
     for i, piece in enumerate(dec.thick):
         m = len(dec.thick)
         report("conformal map", 0.1 + 0.3 * i / m, 0.1 + 0.3 * (i + 1) / m)
-        work.append(prepare_piece(piece, options, timings, dec))
+        try:
+            work.append(prepare_piece(piece, options, timings, dec))
+        except ConformalMapError as exc:
+            # the other pieces' maps are still solved (a successful run needs them too), so
+            # that the failure names every piece without a map, not only the first
+            unmapped.append(exc)
+    if unmapped:
+        raise _no_maps(unmapped)
 
     # One (n, depth step) for all pieces: both sides of a channel must carry the same
     # crosscut vertex count. Pentagon images out of range -> raise n (Lemma 4.1's angles

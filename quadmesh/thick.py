@@ -106,12 +106,15 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
         with span(0.0, 0.6):
             fmap = DiskMap.from_polygon(piece.z, center=piece.center, tol=options.conformal_tol)
     except ConformalMapError as exc:
-        raise ConformalMapError(f"{what}: {exc.args[0]}") from exc
+        err = ConformalMapError(f"{what}: {exc.args[0]}", piece=piece.index)
+        err.prevertices, err.prevertices_kind = exc.prevertices, exc.prevertices_kind
+        raise err from exc
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(
             f"{what} ({len(piece.z)} vertices): its conformal map broke down numerically "
             f"({exc}); this part is too crowded for a disk map: use fewer, longer edges along "
-            "it, or widen its narrow passages"
+            "it, or widen its narrow passages",
+            piece=piece.index,
         ) from exc
     timings["conformal"] = timings.get("conformal", 0.0) + time.perf_counter() - t0
     t0 = time.perf_counter()

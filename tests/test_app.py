@@ -118,14 +118,6 @@ def answer_file_dialog(qtbot, name: str, name_filter: str | None = None, record=
     return DialogAnswer(QFileDialog, act)
 
 
-def menu_action(win, text: str):
-    """The QAction of a menu entry (matched without '&' and '…')."""
-    for a in win.findChildren(type(win.menuBar().actions()[0])):
-        if a.text().replace("&", "").rstrip("…") == text:
-            return a
-    raise AssertionError(f"no menu entry {text!r}")
-
-
 def pixel_variance(path) -> float:
     from PySide6.QtGui import QImage
 
@@ -145,10 +137,32 @@ def assert_angles_ok(mesh, quality) -> None:
     assert ang.min() >= 60.0 - ANGLE_TOL_DEG and ang.max() <= 120.0 + ANGLE_TOL_DEG
 
 
-def load_l_shape(win) -> None:
-    """Examples ▸ l_shape, as picked from the menu."""
-    act = next(a for a in win.examples_menu.actions() if a.text() == "l_shape")
-    act.trigger()
+def pick_menu(qtbot, win, menu, entry) -> None:
+    """Click ``menu``'s title in the menu bar, then its entry ``entry`` (a QAction or the
+    entry's text without '&' and '…'), as a user picks it with the mouse."""
+    if isinstance(entry, str):
+        entry = next(a for a in menu.actions() if _plain(a.text()) == entry)
+    mb = win.menuBar()
+    press(qtbot, mb, mb.actionGeometry(menu.menuAction()).center())
+    qtbot.waitUntil(menu.isVisible, timeout=3000)
+    rect = menu.actionGeometry(entry)
+    assert menu.rect().contains(rect), f"{entry.text()} is outside its menu"
+    qtbot.mouseClick(menu, Qt.MouseButton.LeftButton, pos=rect.center())
+    qtbot.waitUntil(lambda: not menu.isVisible(), timeout=3000)
+
+
+def _plain(text: str) -> str:
+    return text.replace("&", "").replace("…", "").strip()
+
+
+def load_example_by_menu(qtbot, win, name: str) -> None:
+    """Examples ▸ ``name``, picked from the menu with the mouse."""
+    pick_menu(qtbot, win, win.examples_menu, name)
+
+
+def load_l_shape(win, qtbot) -> None:
+    """Examples ▸ l_shape, picked from the menu with the mouse."""
+    load_example_by_menu(qtbot, win, "l_shape")
     np.testing.assert_allclose(np.sort_complex(win.editor.z), np.sort_complex(L_SHAPE))
 
 
@@ -165,7 +179,7 @@ def mesh_l_shape(win, qtbot):
     """Mesh the L-shape by clicking Mesh (the first time; later calls show the same
     MeshResult again to keep the GUI suite fast); returns the window."""
     require_pipeline()
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     if "result" in _MESHED:
         win.set_result(_MESHED["result"])
         return win
@@ -209,7 +223,7 @@ def test_shortcut_mesh_and_cancel_buttons(main_window, qtbot):
     """Ctrl+M starts the mesher, the Cancel button stops it; Escape cancels as well."""
     require_pipeline()
     win = main_window
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     keys(qtbot, win, "Ctrl+M")
     assert win.runner.busy and win.last_error is None, win.last_error
     with qtbot.waitSignal(win.runner.cancelled, timeout=60000):  # queued: not missed
@@ -232,7 +246,7 @@ def test_window_starts_with_tessellation_and_examples(main_window, qtbot):
     tess = win.disk.layer_actors("tessellation")
     assert len(tess) == 1 and tess[0].GetVisibility()
     assert win.examples_menu.actions(), "Examples menu is empty"
-    win.examples_menu.actions()[0].trigger()
+    pick_menu(qtbot, win, win.examples_menu, win.examples_menu.actions()[0])
     assert win.editor.closed and len(win.editor.points) >= 3
     assert win.editor.problem() is None
     assert win.mesh_button.isEnabled()
@@ -330,7 +344,7 @@ def test_bad_drawing_error_then_good_polygon_clears_it(main_window, qtbot):
     click(qtbot, win.disk, 0.1 + 0.1j)
     click(qtbot, win.disk, -0.4 + 0.3j)
     assert len(win.picked) == 2 and "ρ" in win.distance_label.text()
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     assert win.last_error is None and win.error_box.isHidden()
     assert win.error_box.toPlainText() == ""
     assert msg not in win.statusBar().currentMessage()
@@ -345,7 +359,7 @@ def test_mesh_failure_shows_whole_message_then_edit_clears(main_window, qtbot):
     from quadmesh.errors import QuadmeshError
 
     win = main_window
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     before = win.editor.z.copy()
     lines = [
         f"vertex {i} at ({i / 7:.4f}, {1 - i / 9:.4f}): the conformal map did not converge "
@@ -397,7 +411,7 @@ def test_open_invalid_file_then_good_one(main_window, qtbot, tmp_path):
 
 def test_save_polygon_and_open_again(main_window, qtbot, tmp_path):
     win = main_window
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     z = win.editor.z.copy()
     ans = answer_file_dialog(qtbot, str(tmp_path / "poly"))  # no suffix typed
     keys(qtbot, win, QKeySequence.StandardKey.Save)
@@ -521,9 +535,13 @@ def test_export_every_format_with_suffix_and_folder(meshed, qtbot, tmp_path):
     keys(qtbot, win, "Ctrl+E")
     ans.check()
     assert (out / "kept.obj").is_file() and not (out / "kept.obj.vtk").exists()
-    png = tmp_path / "window.png"
-    win.save_screenshot(png)
-    assert pixel_variance(png) > 100.0
+    # File ▸ Save window screenshot (Ctrl+P): the PNG suffix is added
+    ans = answer_file_dialog(qtbot, "window", "PNG (*.png)")
+    keys(qtbot, win, "Ctrl+P")
+    ans.check()
+    png = out / "window.png"
+    assert png.is_file() and pixel_variance(png) > 100.0
+    assert str(png) in win.statusBar().currentMessage()
 
 
 @pytest.mark.parametrize("ext", ["json", "vtk", "vtu", "msh", "obj"])
@@ -562,7 +580,7 @@ def test_open_mesh_file_shows_a_mesh(main_window, qtbot, tmp_path, ext):
     ans.check()
     assert (tmp_path / "again.json").is_file()
     # drawing replaces it
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     assert win.loaded_mesh is None and not win.plane.layer_actors("final_mesh")
 
 
@@ -575,7 +593,7 @@ def test_views_render_only_on_change(main_window, qtbot):
         v.plotter.render_signal.connect(lambda n=name: renders.__setitem__(n, renders[n] + 1))
     qtbot.wait(1200)  # an auto-update timer would have fired at least once
     assert renders == {"plane": 0, "disk": 0}
-    load_l_shape(win)
+    load_l_shape(win, qtbot)
     assert renders["plane"] >= 1
     n0 = renders["disk"]
     press(qtbot, win.reset_disk_btn)
@@ -583,6 +601,35 @@ def test_views_render_only_on_change(main_window, qtbot):
     n = dict(renders)
     qtbot.wait(1100)
     assert renders == n
+
+
+def test_no_render_while_idle_or_hovering_with_a_mesh(meshed, qtbot):
+    """With a mesh on screen every render of either view is counted at the renderer (whatever
+    starts it): an untick redraws the plane view only (a quick frame, then the full-detail
+    one); then 1.2 s idle and the mouse moving over both views (the cursor readout follows
+    it) draw nothing."""
+    win = meshed
+    counts = {"plane": 0, "disk": 0}
+    for name, v in (("plane", win.plane), ("disk", win.disk)):
+        v.plotter.renderer.AddObserver(
+            "StartEvent", lambda *_, n=name: counts.__setitem__(n, counts[n] + 1)
+        )
+    qtbot.wait(300)
+    counts.update(plane=0, disk=0)
+    tick(qtbot, win.layer_panel.checkboxes["crosscuts"])
+    assert counts["plane"] >= 1 and counts["disk"] == 0
+    # the quick frame of the toggle, then one full-detail frame once the toggling stopped
+    qtbot.waitUntil(lambda: not win.plane.interacting, timeout=3000)
+    assert counts["disk"] == 0
+    counts.update(plane=0, disk=0)
+    qtbot.wait(1200)
+    for view in (win.plane, win.disk):
+        w, h = view.plotter.width(), view.plotter.height()
+        for k in range(5):
+            qtbot.mouseMove(view.plotter, QPoint(w // 3 + 20 * k, h // 2 + 10 * k))
+            qtbot.wait(20)
+    assert win.coord_label.text(), "no cursor readout"
+    assert counts == {"plane": 0, "disk": 0}, counts
 
 
 def test_worker_runs_disk_construction_and_cancels(main_window, qtbot):
@@ -728,3 +775,71 @@ def test_option_controls_reach_mesh_options(main_window, qtbot):
     opts = win.mesh_options()
     assert opts.repair is False and opts.adaptive is False
     assert opts.rotations == 1 and opts.lemma_A == 16.0 and opts.conformal_tol == 1e-8
+
+
+def _wheel(view, x: float, y: float, notches: int) -> None:
+    """Turn the mouse wheel over ``view`` at widget pixel (x, y)."""
+    from PySide6.QtCore import QPointF
+    from PySide6.QtGui import QWheelEvent
+    from PySide6.QtWidgets import QApplication
+
+    pos = QPointF(x, y)
+    ev = QWheelEvent(
+        pos,
+        view.plotter.mapToGlobal(pos),
+        QPoint(0, 0),
+        QPoint(0, 120 * notches),
+        Qt.MouseButton.NoButton,
+        Qt.KeyboardModifier.NoModifier,
+        Qt.ScrollPhase.NoScrollPhase,
+        False,
+    )
+    QApplication.sendEvent(view.plotter, ev)
+
+
+def test_view_and_grid_controls_and_quit_by_mouse_and_keys(main_window, qtbot):
+    """The controls no other test reaches: R (View ▸ Reset plane view) undoes a wheel zoom; a
+    double click in the disk view moves that point to the centre and View ▸ Reset disk view
+    (clicked in the menu) undoes it; the grid size typed into the Draw panel is where a
+    snapped click lands; Ctrl+Q closes the window and releases both views."""
+    from quadmesh.hyperbolic.isometry import disk_automorphism
+
+    win = main_window
+    load_l_shape(win, qtbot)
+    view = win.plane
+    cam = view.plotter.camera
+    fitted = (cam.parallel_scale, tuple(cam.focal_point))
+    _wheel(view, 0.3 * view.plotter.width(), 0.6 * view.plotter.height(), 3)
+    assert cam.parallel_scale < 0.6 * fitted[0]
+    view.plotter.setFocus()
+    keys(qtbot, win, "R")
+    assert cam.parallel_scale == pytest.approx(fitted[0], rel=1e-9)
+    np.testing.assert_allclose(cam.focal_point, fitted[1], atol=1e-9 * fitted[0])
+
+    a = 0.35 + 0.2j
+    click(qtbot, win.disk, a, double=True)
+    g = win.disk.transform
+    assert g is not None and abs(complex(g(a))) < 0.02  # a is now (about) the centre
+    want = disk_automorphism(complex(g.inverse()(0j)))
+    assert abs(complex(want(0.1j)) - complex(g(0.1j))) < 1e-9
+    view_menu = next(
+        m for m in win.menuBar().findChildren(type(win.help_menu)) if m.title() == "&View"
+    )
+    pick_menu(qtbot, win, view_menu, "Reset disk view")
+    assert win.disk.transform is None
+
+    # draw with snapping on a typed grid size: the click lands on the grid
+    tick(qtbot, win.draw_check)
+    press(qtbot, win.draw_buttons["clear"])  # a loaded example: no question
+    assert win.editor.points == []
+    tick(qtbot, win.snap_check)
+    win.grid_spin.selectAll()
+    qtbot.keyClicks(win.grid_spin, "0.5")
+    qtbot.keyClick(win.grid_spin, Qt.Key.Key_Return)
+    assert win.editor.grid == 0.5
+    click(qtbot, win.plane, 1.2 + 0.7j)
+    assert win.editor.points == [1.0 + 0.5j]
+
+    keys(qtbot, win, QKeySequence.StandardKey.Quit)
+    qtbot.waitUntil(lambda: not win.isVisible(), timeout=5000)
+    assert win.plane._closed and win.disk._closed

@@ -13,7 +13,7 @@ from quadmesh import MeshOptions, mesh_polygon, render
 from quadmesh.examples import load_example
 from quadmesh.polygon import validate_polygon
 from tests.helpers import L_SHAPE, require_pipeline
-from tests.test_app import assert_angles_ok, click, keys, press, tick
+from tests.test_app import assert_angles_ok, click, keys, load_example_by_menu, press, tick
 from tests.test_blocks import TWO_TIPS
 
 
@@ -99,10 +99,9 @@ def test_split_layout_draws_its_spokes() -> None:
 
 
 # ------------------------------------------------------------------------------- GUI tests
-def _load_example(win, name: str) -> np.ndarray:
-    """Examples ▸ name, as picked from the menu; returns the polygon's vertices."""
-    act = next(a for a in win.examples_menu.actions() if a.text() == name)
-    act.trigger()
+def _load_example(win, qtbot, name: str) -> np.ndarray:
+    """Examples ▸ name, picked from the menu with the mouse; returns the polygon's vertices."""
+    load_example_by_menu(qtbot, win, name)
     verts = load_example(name)
     assert len(win.editor.points) == len(verts) and win.editor.closed
     return verts
@@ -148,7 +147,7 @@ def _mesh_by_click(win, qtbot) -> None:
 def test_blocks_chosen_with_the_keyboard_mesh_layer_and_pick(main_window, qtbot):
     require_pipeline()
     win = main_window
-    verts = _load_example(win, "t_shape")
+    verts = _load_example(win, qtbot, "t_shape")
     combo, spin = win.method_combo, win.block_size_spin
     # the paper's construction is the default; Block size is off until Blocks is chosen
     assert combo.currentData() == "bishop" and win.mesh_options().method == "bishop"
@@ -281,7 +280,7 @@ def test_spiral_blocks_by_a_ladder_show_rungs_and_sectors(main_window, qtbot):
 
     require_pipeline()
     win = main_window
-    verts = _load_example(win, "stroke_spiral")
+    verts = _load_example(win, qtbot, "stroke_spiral")
     _choose_blocks_by_mouse(win, qtbot)
     _mesh_by_click(win, qtbot)
 
@@ -323,7 +322,7 @@ def test_octagon_blocks_by_a_collar_show_spokes(main_window, qtbot):
     panel names the collar; the mesh is verified."""
     require_pipeline()
     win = main_window
-    verts = _load_example(win, "octagon")
+    verts = _load_example(win, qtbot, "octagon")
     _choose_blocks_by_mouse(win, qtbot)
     _mesh_by_click(win, qtbot)
 

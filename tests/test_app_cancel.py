@@ -10,6 +10,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from tests.helpers import require_pipeline
+from tests.test_app import load_example_by_menu
 
 pytestmark = pytest.mark.gui
 
@@ -31,8 +32,7 @@ def test_cancel_button_stops_the_1000_vertex_example_quickly(main_window, qtbot,
     10–32 s), the window is idle again with no result, and the bar moved during the run."""
     require_pipeline()
     win = main_window
-    act = next(a for a in win.examples_menu.actions() if a.text() == "noisy_circle_1000")
-    act.trigger()
+    load_example_by_menu(qtbot, win, "noisy_circle_1000")
     assert len(win.editor.points) == 1000
     seen: list[tuple[float, str, float]] = []
     win.runner.progress.connect(lambda s, f: seen.append((time.monotonic(), s, f)))

@@ -9,7 +9,7 @@ import pytest
 from PySide6.QtCore import QPoint, Qt
 
 from tests.helpers import require_pipeline
-from tests.test_app import _pos, answer_file_dialog, click, keys, mesh_l_shape, press
+from tests.test_app import _pos, answer_file_dialog, click, keys, mesh_l_shape, press, tick
 
 pytestmark = pytest.mark.gui
 
@@ -151,7 +151,11 @@ def test_mesh_panel_tooltips_legend_and_shortcut_help(meshed, qtbot):
 
     # legend: thin parts and thick pieces, as drawn
     r = win.result
-    win.set_visible_layers(["polygon", "thin_parts", "thick_pieces", "final_mesh"])
+    want = {"polygon", "thin_parts", "thick_pieces", "final_mesh"}
+    for name, cb in win.layer_panel.checkboxes.items():  # ticked and unticked by mouse
+        if cb.isChecked() != (name in want):
+            tick(qtbot, cb)
+    assert set(win.layer_panel.visible_layers()) == want
     assert win.legend.isVisible()
     kinds = {t.kind for t in r.thin}
     titles = {"parabolic": "vertex sector", "hyperbolic": "channel", "corridor": "corridor"}
@@ -199,6 +203,26 @@ def test_mesh_panel_tooltips_legend_and_shortcut_help(meshed, qtbot):
     win.shortcuts_dialog.reject()
 
 
+def _pick_recent(win, qtbot, k: int) -> None:
+    """File ▸ Open recent ▸ entry ``k``, clicked with the mouse."""
+    mb = win.menuBar()
+    file_menu = win.recent_menu.menuAction().associatedObjects()[0]
+    press(qtbot, mb, mb.actionGeometry(file_menu.menuAction()).center())
+    qtbot.waitUntil(file_menu.isVisible)
+    qtbot.mouseClick(
+        file_menu,
+        Qt.MouseButton.LeftButton,
+        pos=file_menu.actionGeometry(win.recent_menu.menuAction()).center(),
+    )
+    qtbot.waitUntil(win.recent_menu.isVisible)
+    target = win.recent_menu.actions()[k]
+    qtbot.mouseClick(
+        win.recent_menu,
+        Qt.MouseButton.LeftButton,
+        pos=win.recent_menu.actionGeometry(target).center(),
+    )
+
+
 def test_recent_files_menu(main_window, qtbot, tmp_path):
     """Files opened through File ▸ Open enter File ▸ Open recent (newest first, at most 8,
     kept in the settings); choosing an entry opens that file."""
@@ -220,22 +244,7 @@ def test_recent_files_menu(main_window, qtbot, tmp_path):
     assert [x.data() for x in acts] == [str(b.resolve()), str(a.resolve())]
     assert win.settings.value("recent_files") == [str(b.resolve()), str(a.resolve())]
     # open the triangle again from the menu, as clicked
-    mb = win.menuBar()
-    file_menu = win.recent_menu.menuAction().associatedObjects()[0]
-    press(qtbot, mb, mb.actionGeometry(file_menu.menuAction()).center())
-    qtbot.waitUntil(file_menu.isVisible)
-    qtbot.mouseClick(
-        file_menu,
-        Qt.MouseButton.LeftButton,
-        pos=file_menu.actionGeometry(win.recent_menu.menuAction()).center(),
-    )
-    qtbot.waitUntil(win.recent_menu.isVisible)
-    target = win.recent_menu.actions()[1]
-    qtbot.mouseClick(
-        win.recent_menu,
-        Qt.MouseButton.LeftButton,
-        pos=win.recent_menu.actionGeometry(target).center(),
-    )
+    _pick_recent(win, qtbot, 1)
     qtbot.waitUntil(lambda: win.editor.z.size == 3)
     np.testing.assert_allclose(
         np.sort_complex(win.editor.z), np.sort_complex(tri[:, 0] + 1j * tri[:, 1])
@@ -252,7 +261,7 @@ def test_recent_files_menu(main_window, qtbot, tmp_path):
     # a file that disappeared leaves the list with a message
     gone = names[-1]
     (tmp_path / "p8.json").unlink()
-    win.recent_menu.actions()[0].trigger()
+    _pick_recent(win, qtbot, 0)
     assert gone not in win.recent_files() and "no longer exists" in win.last_error
 
 

@@ -10,7 +10,15 @@ from PySide6.QtGui import QGuiApplication, QKeySequence
 
 from app.drawing import parse_coordinates
 from tests.helpers import L_SHAPE
-from tests.test_app import DialogAnswer, click, keys, press, tick
+from tests.test_app import (
+    DialogAnswer,
+    answer_file_dialog,
+    click,
+    keys,
+    load_example_by_menu,
+    press,
+    tick,
+)
 
 pytestmark = pytest.mark.gui
 
@@ -105,8 +113,9 @@ def _draw_triangle(win, qtbot) -> np.ndarray:
     return win.editor.z.copy()
 
 
-def _example_action(win, name: str):
-    return next(a for a in win.examples_menu.actions() if a.text() == name)
+def _example(win, qtbot, name: str) -> None:
+    """Examples ▸ ``name``, picked from the menu with the mouse."""
+    load_example_by_menu(qtbot, win, name)
 
 
 def test_discarding_a_drawn_polygon_asks_first(main_window, qtbot, monkeypatch):
@@ -126,20 +135,20 @@ def test_discarding_a_drawn_polygon_asks_first(main_window, qtbot, monkeypatch):
         return answer[0]
 
     monkeypatch.setattr(QMessageBox, "question", question)
-    _example_action(win, "l_shape").trigger()
+    _example(win, qtbot, "l_shape")
     assert len(asked) == 1 and "3 vertices" in asked[0] and "l_shape" in asked[0]
     assert np.allclose(win.editor.z, drawn)  # kept
     keys(qtbot, win, QKeySequence.StandardKey.New)
     assert len(asked) == 2 and np.allclose(win.editor.z, drawn)
-    win._open_dialog()  # Cancel: no file dialog follows
+    keys(qtbot, win, QKeySequence.StandardKey.Open)  # Cancel: no file dialog follows
     assert len(asked) == 3 and np.allclose(win.editor.z, drawn)
 
     answer[0] = QMessageBox.StandardButton.Discard
-    _example_action(win, "l_shape").trigger()
+    _example(win, qtbot, "l_shape")
     assert len(asked) == 4 and _same_polygon(win.editor.z, L_SHAPE)
     assert not win.has_unsaved_polygon()
     # a loaded example is not "drawn": the next example replaces it without a question
-    _example_action(win, "star_100").trigger()
+    _example(win, qtbot, "star_100")
     assert len(asked) == 4 and len(win.editor.points) > 6
     # New over an edited polygon, answered Discard: an empty drawing in draw mode
     press(qtbot, win.draw_buttons["undo"])  # back to the L-shape: an edit
@@ -165,11 +174,11 @@ def test_discard_question_box_driven(main_window, qtbot, tmp_path):
         return act
 
     ans = DialogAnswer(QMessageBox, click_button(QMessageBox.StandardButton.Cancel))
-    _example_action(win, "l_shape").trigger()
+    _example(win, qtbot, "l_shape")
     ans.check()
     assert np.allclose(win.editor.z, drawn)
     ans = DialogAnswer(QMessageBox, click_button(QMessageBox.StandardButton.Discard))
-    _example_action(win, "l_shape").trigger()
+    _example(win, qtbot, "l_shape")
     ans.check()
     assert _same_polygon(win.editor.z, L_SHAPE)
     # draw again, save it: then an example replaces it without asking
@@ -179,8 +188,10 @@ def test_discard_question_box_driven(main_window, qtbot, tmp_path):
         click(qtbot, win.plane, z)
     click(qtbot, win.plane, 0.0)
     assert win.has_unsaved_polygon()
-    win.save_polygon(tmp_path / "tri.json")
-    win._mark_clean()
+    ans = answer_file_dialog(qtbot, str(tmp_path / "tri"), "JSON (*.json)")
+    keys(qtbot, win, QKeySequence.StandardKey.Save)  # File ▸ Save polygon
+    ans.check()
+    assert (tmp_path / "tri.json").is_file()
     assert not win.has_unsaved_polygon()
-    _example_action(win, "l_shape").trigger()  # a box here would block: none is shown
+    _example(win, qtbot, "l_shape")  # a box here would block: none is shown
     assert _same_polygon(win.editor.z, L_SHAPE)

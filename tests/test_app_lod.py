@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tests.helpers import require_pipeline
-from tests.test_app import mesh_l_shape
+from tests.test_app import _pos, mesh_l_shape, tick
 
 pytestmark = pytest.mark.gui
 
@@ -47,24 +47,28 @@ def test_light_stand_in_of_the_final_mesh(heavy):
 
 
 def test_interaction_swaps_heavy_parts_for_light_ones(heavy, qtbot):
-    """begin/end_interaction show the stand-ins instead of the heavy parts and back; a layer
-    toggle draws light at once and full detail after LOD_SETTLE_MS."""
+    """begin/end_interaction show the stand-ins (without multisampling) instead of the heavy
+    parts and back; a layer toggle draws light at once and full detail after LOD_SETTLE_MS."""
     import app.views
 
     v = heavy.plane
     st = v.layers["final_mesh"]
     assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
+    samples = v.plotter.ren_win.GetMultiSamples()
+    assert samples > 0  # full-detail frames are anti-aliased
     v.begin_interaction()
     assert _visible(st.actors) == [False, False] and _visible(st.light_actors) == [True]
+    assert v.plotter.ren_win.GetMultiSamples() == 0  # light frames are not
     v.end_interaction()
     assert not v.interacting and _visible(st.actors) == [True, True]
-    heavy.layer_panel.checkboxes["crosscuts"].setChecked(False)
+    assert v.plotter.ren_win.GetMultiSamples() == samples
+    tick(qtbot, heavy.layer_panel.checkboxes["crosscuts"])  # unticked by mouse
     assert v.interacting and _visible(st.light_actors) == [True]
     qtbot.waitUntil(lambda: not v.interacting, timeout=app.views.LOD_SETTLE_MS + 2000)
     assert _visible(st.actors) == [True, True] and _visible(st.light_actors) == [False]
     # hiding the layer while light hides its stand-in too
     v.begin_interaction()
-    heavy.layer_panel.checkboxes["final_mesh"].setChecked(False)
+    tick(qtbot, heavy.layer_panel.checkboxes["final_mesh"])
     assert _visible(st.actors + st.light_actors) == [False, False, False]
     v.end_interaction()
     assert _visible(st.actors + st.light_actors) == [False, False, False]
@@ -77,13 +81,18 @@ def test_colour_switch_reuses_parked_actors(heavy, qtbot):
 
     v = heavy.plane
     first = list(v.layer_actors("final_mesh"))
+    from PySide6.QtCore import Qt
+
     combo = heavy.layer_panel.color_mode
-    combo.setCurrentIndex(combo.findData("worst"))
+    combo.setFocus()
+    qtbot.keyClick(combo, Qt.Key.Key_Down)  # corner angle -> worst deviation
+    assert combo.currentData() == "worst"
     assert v.layers["final_mesh"].geometry.part("quads").scalars == "worst_deviation"
     bars = v.plotter.scalar_bars
     assert bars[WORST_TITLE].GetVisibility() and not bars[CORNER_TITLE].GetVisibility()
     assert not any(a is b for a in v.layer_actors("final_mesh") for b in first)
-    combo.setCurrentIndex(combo.findData("corner"))
+    qtbot.keyClick(combo, Qt.Key.Key_Up)
+    assert combo.currentData() == "corner"
     again = v.layer_actors("final_mesh")
     assert len(again) == len(first) and all(a is b for a, b in zip(again, first, strict=True))
     assert bars[CORNER_TITLE].GetVisibility() and not bars[WORST_TITLE].GetVisibility()
@@ -94,15 +103,18 @@ def test_colour_switch_reuses_parked_actors(heavy, qtbot):
     assert _visible(parked.actors + parked.light_actors) == [False, False, False]
 
 
-def test_disk_drag_moves_light_parts_and_catches_up_on_release(heavy):
-    """During a drag in the disk view only the light parts follow the automorphism; on the
-    release every disk part sits at g(disk_z)."""
+def test_disk_drag_moves_light_parts_and_catches_up_on_release(heavy, qtbot):
+    """During a mouse drag in the disk view only the light parts follow the automorphism; on
+    the release every disk part sits at g(disk_z)."""
+    from PySide6.QtCore import Qt
+
     win = heavy
     d = win.disk
     st = d.layers["region_w"]
     assert any(st.heavy) and st.light_parts
-    win._on_disk_mouse("press", 0.1 + 0.05j, 0)
-    win._on_disk_mouse("drag", 0.4 + 0.3j, 0)
+    qtbot.mousePress(d.plotter, Qt.MouseButton.LeftButton, pos=_pos(d, 0.1 + 0.05j))
+    qtbot.mouseMove(d.plotter, _pos(d, 0.25 + 0.2j))
+    qtbot.mouseMove(d.plotter, _pos(d, 0.4 + 0.3j))
     g = d.transform
     assert g is not None and d.interacting
     for part in st.light_parts:
@@ -111,7 +123,7 @@ def test_disk_drag_moves_light_parts_and_catches_up_on_release(heavy):
     big = [p for p, h in zip(d._drawn_parts(st), st.heavy, strict=True) if h]
     pts = np.asarray(big[0].mesh.points)
     assert not np.allclose(pts[:, 0] + 1j * pts[:, 1], g(big[0].disk_z) * big[0].disk_scale)
-    win._on_disk_mouse("release", 0.4 + 0.3j, 0)
+    qtbot.mouseRelease(d.plotter, Qt.MouseButton.LeftButton, pos=_pos(d, 0.4 + 0.3j))
     assert not d.interacting
     g = d.transform
     for part in d._drawn_parts(st):

@@ -116,3 +116,59 @@ def test_spin_box_steps_through_the_partial_pieces(main_window, qtbot):
     np.testing.assert_allclose(np.sort(np.angle(z0)), np.sort(np.angle(want)), atol=1e-6)
     assert z0.size != z1.size or not np.allclose(np.sort(np.angle(z0)), np.sort(np.angle(z1)))
     assert _disk_part(win, "disk_mesh", "edges").mesh.n_cells > 100
+
+
+def test_unsolved_map_shows_the_estimate_it_judged(main_window, qtbot):
+    """A winding corridor with a narrow waist: no straight-cell layout, and the conformal map
+    of its one thick piece is refused as crowded, so there is no map.  The plane view outlines
+    that piece in red; the disk view shows what the crowding check judged — the
+    harmonic-measure estimate of its prevertices, labelled so in the legend, with "(failed, no
+    map)" in the spin box and no region or disk mesh; a drag in the disk view moves the
+    estimate with the tessellation; an edit of the polygon with the mouse clears it all."""
+    from quadmesh.families import FAMILIES
+    from tests.test_app import drag
+
+    require_pipeline()
+    win = main_window
+    poly = np.asarray(FAMILIES["walks"](0)[2].vertices)
+    win.set_polygon(poly)
+    with qtbot.waitSignal(win.runner.idle, timeout=120000):
+        press(qtbot, win.mesh_button)
+    assert win.result is None and win.progress_bar.format() == "failed"
+    assert win.last_error.startswith("[conformal]") and "crowding" in win.last_error
+    assert win.error_box.toPlainText() == win.last_error
+    assert not win.error_box.visibleRegion().isEmpty()  # scrolled into view, not covered
+    partial = win.partial
+    assert partial.failed_piece == 0 and partial.pieces == ()
+    assert win.piece_spin.suffix() == " (failed, no map)" and win.piece_spin.maximum() == 0
+    pre = _disk_part(win, "prevertices", partial.failed_prevertices_kind)
+    z = _points(pre)
+    want = np.asarray(partial.failed_prevertices)
+    assert z.size == want.size == len(partial.decomposition.thick[0].z)
+    np.testing.assert_allclose(z, want, atol=1e-6)  # float32 points
+    assert "harmonic-measure estimate" in partial.failed_prevertices_kind
+    st = win.disk.layers["prevertices"]
+    assert st.visible and st.actors and all(a.GetVisibility() for a in st.actors)
+    for name in ("region_w", "disk_mesh"):
+        assert win.disk.layers[name].geometry is None
+    assert any("harmonic-measure estimate" in lab for lab in win.legend.labels("prevertices"))
+    red = win.plane.overlays["partial"][-1]
+    outline = np.asarray(red.GetMapper().GetInput().GetPoints().GetData())[:, :2]
+    piece = np.asarray(partial.decomposition.thick[0].z) + partial.origin
+    np.testing.assert_allclose(np.sort(outline[:, 0]), np.sort(piece.real), atol=1e-4)
+
+    # a drag in the disk view moves the estimate by the automorphism (it stays on T)
+    drag(qtbot, win.disk, 0.4 + 0.1j, 0.0j)
+    moved = _points(_disk_part(win, "prevertices", partial.failed_prevertices_kind))
+    np.testing.assert_allclose(np.abs(moved), 1.0, atol=1e-5)
+    assert np.max(np.abs(moved - want)) > 0.1
+
+    # moving a vertex with the mouse clears the failure, the estimate and the red outline
+    tick(qtbot, win.draw_check)
+    a = complex(win.editor.z[0])
+    win.reset_plane_view()
+    win.plane.render()
+    drag(qtbot, win.plane, a, a + 0.02 * (win.editor.z.mean() - a))
+    assert win.partial is None and win.last_error is None
+    assert win.disk.layers["prevertices"].geometry is None
+    assert win.piece_spin.suffix() == "" and "partial" not in win.plane.overlays

@@ -136,3 +136,19 @@ def test_quadrature_path_through_prevertex_fails_fast() -> None:
         # from the origin straight into prevertex 2, as a regular (non-singular) integral
         plan_integrals(cfg, np.array([cfg.n]), np.array([0j]), cfg.z[2:3], np.array([False]))
     assert time.perf_counter() - t0 < 1.0
+
+
+def test_crowding_rejection_carries_the_estimate_it_judged() -> None:
+    """The early crowding rejection keeps the harmonic-measure placement it judged: one
+    prevertex per vertex on T, the first at 1, the smallest gap the one the check refused."""
+    p = decompose(load_example("square_spiral"), DecomposeOptions(crowding_gap=0.0)).thick[0]
+    with pytest.raises(ConformalMapError, match="crowding") as info:
+        DiskMap.from_polygon(p.z, center=p.center, tol=TOL)
+    pre = np.asarray(info.value.prevertices)
+    assert pre.shape == (len(p.z),) and pre[0] == 1.0
+    np.testing.assert_allclose(np.abs(pre), 1.0, atol=1e-12)
+    assert "harmonic-measure estimate" in info.value.prevertices_kind
+    est = 2 * np.pi * harmonic_measure(p.z, p.center)
+    gaps = np.mod(np.angle(np.roll(pre, -1) / pre), 2 * np.pi)
+    big = est > 1e-3
+    np.testing.assert_allclose(gaps[big], (est * (2 * np.pi / est.sum()))[big], rtol=1e-8)

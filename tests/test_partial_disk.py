@@ -157,3 +157,42 @@ def test_thin_failure_keeps_every_piece_and_names_none(monkeypatch):
     (p,) = partial.pieces
     _check_map_and_arcs(partial, p)
     assert p.disk is not None and np.all(np.isfinite(p.image))
+
+
+def test_unsolved_maps_name_every_piece_and_keep_the_estimate(monkeypatch):
+    """When the conformal map of a piece fails, the other pieces' maps are still solved: with
+    both dumbbell pieces failing (their solve forced to stop at the harmonic-measure estimate,
+    the path of the crowding rejection) the message names both parts, the partial result
+    marks piece 0 as failed and piece 1 as failing too, and carries piece 0's estimated
+    prevertices (on T, one per vertex, θ_0 = 0, spaced as 2π times the harmonic measure)."""
+    from quadmesh.conformal import DiskMap, harmonic_measure
+    from quadmesh.conformal import diskmap as dm
+    from quadmesh.examples import load_example
+
+    calls = []
+
+    def refuse(cls, vertices, center=None, tol=1e-10, **kw):
+        calls.append(len(vertices))
+        w = np.asarray(vertices, dtype=np.complex128)
+        gaps = 2 * np.pi * harmonic_measure(w, center)
+        err = ConformalMapError("crowding: refused for the test")
+        raise dm._estimated(err, gaps, 0, dm.ESTIMATE_KIND)
+
+    monkeypatch.setattr(DiskMap, "from_polygon", classmethod(refuse))
+    exc, partial = _fail(np.asarray(load_example("dumbbell")))
+    thick = partial.decomposition.thick
+    assert len(thick) == 2 and calls[:2] == [len(thick[0].z), len(thick[1].z)]
+    assert isinstance(exc, ConformalMapError)
+    text = str(exc)
+    assert text.count("crowding: refused for the test") == 2
+    for piece in thick:
+        assert partial.decomposition.describe_piece(piece.index) in text
+    assert partial.failed_piece == 0 and partial.other_failed == (1,) and partial.pieces == ()
+    pre = np.asarray(partial.failed_prevertices)
+    assert pre.shape == (len(thick[0].z),)
+    np.testing.assert_allclose(np.abs(pre), 1.0, atol=1e-12)
+    assert pre[0] == 1.0
+    gaps = np.mod(np.angle(np.roll(pre, -1) / pre), 2 * np.pi)
+    want = 2 * np.pi * harmonic_measure(np.asarray(thick[0].z), thick[0].center)
+    np.testing.assert_allclose(gaps, want * (2 * np.pi / want.sum()), rtol=1e-9, atol=1e-12)
+    assert "harmonic-measure estimate" in partial.failed_prevertices_kind

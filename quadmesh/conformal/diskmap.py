@@ -53,6 +53,8 @@ _SERIES_EPS = 1e-17
 #: to 1e-36), so such a map would be refused after a long solve anyway (a random 120-star
 #: with an estimate of 1.7e-19 took 20 s to fail under the former ``min_gap**1.5`` rule).
 CROWDING_REJECT = 1e-2
+#: What the prevertices a failed solve carries are when they come from the harmonic measure.
+ESTIMATE_KIND = "harmonic-measure estimate (the map was not solved)"
 _CHUNK = 262_144
 #: Series centres closer than this to a prevertex get their coefficients and values in local
 #: coordinates (differences from the gaps, values from the nearest prevertex): the far-field
@@ -211,6 +213,22 @@ def _dropped_sides(e: np.ndarray, ref: int) -> tuple[int, int]:
     )
     i, j = np.unravel_index(int(np.argmax(score)), score.shape)
     return int(cand[i]), int(cand[j])
+
+
+def _estimated(err: ConformalMapError, gaps: np.ndarray | None, shift: int, kind: str):
+    """``err`` carrying the prevertex positions a failed solve had at hand, for a viewer:
+    ``err.prevertices`` (unit complex, in the input vertex order, ``θ_0 = 0`` as in a solved
+    map) from ``gaps`` (in the solver's rolled order, ``shift`` as in :meth:`DiskMap.from_polygon`)
+    and ``err.prevertices_kind`` saying what they are.  Without usable gaps ``err`` is
+    returned unchanged."""
+    if gaps is None or not np.all(np.isfinite(gaps)) or gaps.size < 3:
+        return err
+    g = np.roll(np.asarray(gaps, dtype=float), shift)
+    g = g * (TWO_PI / g.sum())
+    theta = np.concatenate([[0.0], np.cumsum(g[:-1])])
+    err.prevertices = np.exp(1j * theta)
+    err.prevertices_kind = kind
+    return err
 
 
 def _crowding_message(a: complex, b: complex, center: complex, gap: float, min_gap: float) -> str:
@@ -623,8 +641,13 @@ class DiskMap:
             est_gap = float(np.min(est))
             if 0.0 < min_gap < 1.0 and est_gap < min_gap * CROWDING_REJECT:
                 k = int(np.argmin(est))
-                raise ConformalMapError(
-                    _crowding_message(wr[k], wr[(k + 1) % n], center, est_gap, min_gap)
+                raise _estimated(
+                    ConformalMapError(
+                        _crowding_message(wr[k], wr[(k + 1) % n], center, est_gap, min_gap)
+                    ),
+                    est,
+                    shift,
+                    ESTIMATE_KIND,
                 )
             if not forced:
                 xe = _x_from_gaps(est)
@@ -666,9 +689,12 @@ class DiskMap:
                 why = f"no convergence: residual {res:.2e}, smallest gap {gmin:.1e}"
                 if est is not None:
                     why += f", estimated smallest gap {float(np.min(est)):.1e}"
-            raise ConformalMapError(
+            err = ConformalMapError(
                 f"Schwarz–Christoffel parameter problem failed ({why}, n={prob.n})"
             )
+            if est is not None:
+                raise _estimated(err, est, shift, ESTIMATE_KIND)
+            raise _estimated(err, _Problem.gaps(x1), shift, "last solver iterate (not converged)")
         final = _Problem(w, center, nodes, local)
         final.nfev = prob.nfev
         final.steps = prob.steps
@@ -677,17 +703,19 @@ class DiskMap:
         gmin = float(np.min(dm.gaps))
         if gmin < min_gap:
             k = int(np.argmin(dm.gaps))
-            raise ConformalMapError(_crowding_message(w[k], w[(k + 1) % n], center, gmin, min_gap))
+            err = ConformalMapError(_crowding_message(w[k], w[(k + 1) % n], center, gmin, min_gap))
+            raise _estimated(err, dm.gaps, 0, "solved map, rejected (gap below resolution)")
         dm.solve_time = time.perf_counter() - t0
         if check:
             with prob.steps.next():
                 acc = dm.accuracy()
             if not acc.passed(tol):
-                raise ConformalMapError(
+                err = ConformalMapError(
                     "the conformal map of this part of the polygon failed its accuracy checks: "
                     + ", ".join(f"{k}={v:.1e}" for k, v in acc.as_dict().items())
                     + (" — crowding" if acc.min_gap < 1e-8 else "")
                 )
+                raise _estimated(err, dm.gaps, 0, "solved map, failed its accuracy checks")
         return dm
 
     # ------------------------------------------------------------------ evaluation
