@@ -106,7 +106,9 @@ def _candidate_arcs(
     hw = np.minimum(target[:, None] * ss[None, :], gap[:, None] / 10.0)
     hw = np.maximum(hw, 1.05 * half[:, None])
     mid = centre[:, None] + oo[None, :] * (hw - half[:, None])
-    js, jl, _, _ = minimal_containing_arc(np.mod(mid - hw, 2 * np.pi).ravel(), (2 * hw).ravel())
+    js, jl, _, _ = minimal_containing_arc(
+        np.mod(mid - hw, 2 * np.pi).ravel(), (2 * hw).ravel(), fast=True
+    )
     phi = jl.reshape(hw.shape) / 2
     jc = js.reshape(hw.shape) + phi
     dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
