@@ -118,6 +118,29 @@ def test_minimal_arc_for_tiny_arcs() -> None:
     assert np.all(ratio >= 1.0) and np.all(ratio < 16.0)  # Lemma 2.1's constant c (13.5 measured)
 
 
+def test_fast_minimal_arc_matches_long_double() -> None:
+    """fast=True searches arcs of at least FAST_MIN_ARC in float64 and the shorter ones in long
+    double: the minimal lengths agree with the long-double search to 1e-9 (relative), every
+    result contains its arc, and the short arcs' results are the long double ones exactly."""
+    from quadmesh.disk.tessellation import FAST_MIN_ARC
+
+    rng = np.random.default_rng(11)
+    s = rng.uniform(0, TWO_PI, 3000)
+    ell = 10.0 ** rng.uniform(-9, -0.5, 3000)
+    ms, ml, _, _ = minimal_containing_arc(s, ell)
+    fs, fl, g, k = minimal_containing_arc(s, ell, fast=True)
+    assert fs.dtype == np.float64 and fl.dtype == np.float64
+    assert np.all(arc_contains_arc(fs, fl, s, ell))
+    assert np.max(np.abs(fl - ml) / ml) < 1e-9
+    short = ell < FAST_MIN_ARC
+    assert 0 < short.sum() < len(ell)
+    np.testing.assert_array_equal(fs[short], ms[short])
+    np.testing.assert_array_equal(fl[short], ml[short])
+    # the returned tile edge carries the arc
+    _fs, far = tile_edge_far_arcs(g)
+    np.testing.assert_allclose(far[np.arange(len(ell)), k], fl, rtol=1e-8)
+
+
 def test_minimal_arc_rejects_huge_arc() -> None:
     with pytest.raises(DiskConstructionError):
         minimal_containing_arc(np.array([0.0]), np.array([3.0]))
