@@ -19,6 +19,10 @@ raises, with the same class and message — after the pieces before it were kept
 partial result, as serially. Only a decomposition with at least two thick pieces is shipped:
 one piece gains nothing from a second process and would pay its start-up.
 
+``MeshResult.timings`` then adds up the seconds the workers spent per stage (work, not the
+wall time of the stage). A worker process that dies (killed, out of memory) fails the call
+with the executor's own error (:class:`concurrent.futures.process.BrokenProcessPool`).
+
 Progress is reported as pieces finish; cancellation is polled every
 :data:`quadmesh.progress.INTERVAL` seconds while the pieces run: it cancels the tasks not yet
 started and raises :class:`~quadmesh.errors.Cancelled` at once; the worker processes of the
@@ -45,20 +49,25 @@ __all__ = ["PieceRunner", "disk_task", "make_pool", "prepare_task", "process_con
 
 #: Modules a ``forkserver`` imports once, so that its workers start with them loaded.
 PRELOAD = ["quadmesh.thick", "quadmesh.conformal", "quadmesh.disk", "quadmesh.pushforward"]
+#: Loaded, these mean a Qt application, whose own threads rule out ``fork``.
+QT_MODULES = ("PySide6.QtCore", "PyQt6.QtCore", "PySide2.QtCore", "PyQt5.QtCore")
 
 
 def process_context() -> Any:
     """The multiprocessing context of the piece workers.
 
-    On Linux, ``fork`` when the caller is the only thread of the process (the command line): a
-    worker starts in milliseconds with quadmesh loaded. Forking a process in which other threads
-    run (the app meshes in a Qt worker thread) can copy a lock another thread holds, so there
-    ``forkserver`` is used: a clean server process, started once, that imports quadmesh once
-    (:data:`PRELOAD`) and forks the workers. Other platforms: ``spawn``.
+    On Linux, ``fork`` when the caller is the main thread and the only thread of the process
+    (the command line): a worker starts in milliseconds with quadmesh loaded. Forking a process
+    in which other threads run (the app meshes in a Qt worker thread, and Qt runs threads of
+    its own that Python does not see) can copy a lock another thread holds, so there
+    ``forkserver`` is used: a clean server process, started once per process, that imports
+    quadmesh once (:data:`PRELOAD`) and forks the workers. Other platforms: ``spawn``.
     """
     methods = mp.get_all_start_methods()
     if sys.platform.startswith("linux") and "fork" in methods:
-        if threading.active_count() == 1:
+        main = threading.current_thread() is threading.main_thread()
+        alone = main and threading.active_count() == 1
+        if alone and not any(m in sys.modules for m in QT_MODULES):
             return mp.get_context("fork")
         if "forkserver" in methods:
             ctx = mp.get_context("forkserver")
