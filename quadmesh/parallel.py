@@ -61,7 +61,10 @@ def process_context() -> Any:
     in which other threads run (the app meshes in a Qt worker thread, and Qt runs threads of
     its own that Python does not see) can copy a lock another thread holds, so there
     ``forkserver`` is used: a clean server process, started once per process, that imports
-    quadmesh once (:data:`PRELOAD`) and forks the workers. Other platforms: ``spawn``.
+    quadmesh once (:data:`PRELOAD`) and forks the workers. Other platforms: ``spawn``. As for
+    every ``forkserver`` or ``spawn`` pool, a script run as ``python script.py`` that meshes
+    with jobs from a thread must keep its top-level code under ``if __name__ == "__main__":``
+    (the workers import the main module).
     """
     methods = mp.get_all_start_methods()
     if sys.platform.startswith("linux") and "fork" in methods:
