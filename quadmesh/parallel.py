@@ -182,11 +182,14 @@ class PieceRunner:
         tasks: Sequence[tuple],
         timings: dict[str, float],
         report: Callable[[float, float], None],
+        cost: Sequence[float] | None = None,
     ) -> Iterator[Any]:
         """Yield ``fn(*task)`` for every task, in order; the last item of each result (the
         task's seconds per stage) is added to ``timings``. ``report(lo, hi)``: the share
         [lo, hi] of the tasks' stage now covered (inline: task i's share; in parallel: the
-        finished tasks'). A task's exception is raised when its turn comes (the tasks after
+        finished tasks'). ``cost``: a guess of each task's work; in parallel the costliest
+        tasks are submitted first, so that a large piece does not start last while the other
+        workers idle. A task's exception is raised when its turn comes (the tasks after
         it are then cancelled, as they are when the caller closes the generator early: use
         it in :func:`contextlib.closing`)."""
         m = len(tasks)
@@ -198,7 +201,9 @@ class PieceRunner:
                 _merge(timings, out[-1])
                 yield out
             return
-        futures: list[Future] = [executor.submit(_isolated, fn, *args) for args in tasks]
+        order = sorted(range(m), key=lambda i: -cost[i]) if cost is not None else range(m)
+        submitted = {i: executor.submit(_isolated, fn, *tasks[i]) for i in order}
+        futures: list[Future] = [submitted[i] for i in range(m)]
         finished = 0
         report(0.0, 1.0 / m)
         try:

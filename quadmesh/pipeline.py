@@ -321,7 +321,10 @@ def _thick_and_thin(
 
     work: list[PieceWork] = kept.work
     tasks = [(piece, options, dec) for piece in dec.thick]
-    with closing(runner.run(prepare_task, tasks, timings, share("conformal map", 0.1, 0.3))) as it:
+    # a piece's work grows with its arcs I_j: one per polygon vertex it holds, one per crosscut
+    cost = [int(np.sum(np.asarray(p.source) >= 0)) + len(p.crosscuts) for p in dec.thick]
+    stage = share("conformal map", 0.1, 0.3)
+    with closing(runner.run(prepare_task, tasks, timings, stage, cost)) as it:
         for pd, _ in it:
             work.append(attach_piece(pd, dec))
 
@@ -335,7 +338,8 @@ def _thick_and_thin(
             disks = kept.start(n, step)
             bad_kind: dict[str, tuple[float, float, int]] = {}
             tasks = [(pd, n, step, dmax, options) for pd in work]
-            with closing(runner.run(disk_task, tasks, timings, share("disk mesh", 0.4, 0.3))) as it:
+            stage = share("disk mesh", 0.4, 0.3)
+            with closing(runner.run(disk_task, tasks, timings, stage, cost)) as it:
                 for pd, out in zip(work, it):
                     disk, image = apply_disk(pd, out)
                     disks.append((disk, image))
