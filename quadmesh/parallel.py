@@ -17,7 +17,9 @@ caller gives (the executor of a ``dask.distributed`` Client, ...). Either way th
 taken in piece order and the first failure in piece order is raised — the error the serial run
 raises, with the same class and message — after the pieces before it were kept for the
 partial result, as serially. Only a decomposition with at least two thick pieces is shipped:
-one piece gains nothing from a second process and would pay its start-up.
+one piece gains nothing from a second process and would pay its start-up. A polygon meshed
+as one corridor of straight cells, or by ``method="blocks"``, has no thick piece to ship (an
+arm's body is meshed by a nested call, whose pieces are shipped again).
 
 ``MeshResult.timings`` then adds up the seconds the workers spent per stage (work, not the
 wall time of the stage). A worker process that dies (killed, out of memory) fails the call
@@ -45,7 +47,15 @@ from .progress import INTERVAL, checkpoint
 from .result import MeshOptions
 from .thick import PieceWork, disk_and_image, owner_namer, prepare_piece
 
-__all__ = ["PieceRunner", "disk_task", "make_pool", "prepare_task", "process_context"]
+__all__ = [
+    "PieceRunner",
+    "apply_disk",
+    "attach_piece",
+    "disk_task",
+    "make_pool",
+    "prepare_task",
+    "process_context",
+]
 
 #: Modules a ``forkserver`` imports once, so that its workers start with them loaded.
 PRELOAD = ["quadmesh.thick", "quadmesh.conformal", "quadmesh.disk", "quadmesh.pushforward"]
