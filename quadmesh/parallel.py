@@ -58,7 +58,14 @@ __all__ = [
 ]
 
 #: Modules a ``forkserver`` imports once, so that its workers start with them loaded.
-PRELOAD = ["quadmesh.thick", "quadmesh.conformal", "quadmesh.disk", "quadmesh.pushforward"]
+PRELOAD = [
+    "quadmesh.thick",
+    "quadmesh.conformal",
+    "quadmesh.disk.assembly",
+    "quadmesh.disk.region",
+    "quadmesh.pushforward",
+    "quadmesh.repair",
+]
 #: Loaded, these mean a Qt application, whose own threads rule out ``fork``.
 QT_MODULES = ("PySide6.QtCore", "PyQt6.QtCore", "PySide2.QtCore", "PyQt5.QtCore")
 
@@ -92,7 +99,10 @@ def process_context() -> Any:
 def make_pool(jobs: int) -> ProcessPoolExecutor:
     """A pool of ``jobs`` worker processes for the pieces (:func:`process_context`)."""
     # what the tasks and their results need, loaded before a fork so no worker imports it again
-    from . import conformal, disk, pushforward  # noqa: F401
+    import importlib
+
+    for name in PRELOAD:
+        importlib.import_module(name)
 
     return ProcessPoolExecutor(jobs, mp_context=process_context())
 
