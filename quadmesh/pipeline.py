@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from concurrent.futures import Executor
+from contextlib import closing
 from dataclasses import replace
 
 import numpy as np
@@ -34,16 +36,11 @@ from .errors import (
     ThinPartError,
 )
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
+from .parallel import PieceRunner, apply_disk, attach_piece, disk_task, prepare_task
 from .polygon import Polygon, validate_polygon
 from .progress import Run, running
 from .result import MeshOptions, MeshResult, ThinPartResult
-from .thick import (
-    KeptStages,
-    PieceWork,
-    collect_angle_faults,
-    disk_and_image,
-    prepare_piece,
-)
+from .thick import KeptStages, PieceWork, collect_angle_faults
 from .thin.corridor import whole_corridor
 
 __all__ = ["MeshOptions", "MeshResult", "mesh_polygon"]
@@ -102,6 +99,8 @@ def mesh_polygon(
     options: MeshOptions | None = None,
     progress: ProgressCallback | None = None,
     cancel: CancelCallback | None = None,
+    *,
+    executor: Executor | None = None,
 ) -> MeshResult:
     """Mesh a simple polygon by quadrilaterals with every new angle in [60°, 120°].
 
@@ -113,6 +112,12 @@ def mesh_polygon(
         cancel: optional callable polled between stages and at most every 0.05 s inside the
             long loops (:mod:`quadmesh.progress`); returning True raises
             :class:`~quadmesh.errors.Cancelled`.
+        executor: runs the thick pieces' own stages (map, arcs, disk mesh, push-forward,
+            repair) when the decomposition has at least two: any
+            :class:`concurrent.futures.Executor` (the executor of a ``dask.distributed``
+            Client, ...), used and left open. Without it, ``options.jobs`` > 1 makes a process
+            pool of that many workers for the call. The mesh is the same bit for bit as
+            the serial run's (:mod:`quadmesh.parallel`).
 
     Returns:
         A :class:`MeshResult` whose ``mesh`` passed :meth:`QuadMesh.verify`.
@@ -123,17 +128,27 @@ def mesh_polygon(
         MeshVerificationError: the assembled mesh failed verification (never returned).
         Cancelled: ``cancel()`` returned True.
     """
-    with running(progress, cancel) as run:
-        return _run_stages(polygon, options, run)
+    options = options or MeshOptions()
+    runner = PieceRunner(options.jobs, executor)
+    failed = True
+    try:
+        with running(progress, cancel) as run:
+            result = _run_stages(polygon, options, run, runner)
+        failed = False
+        return result
+    finally:
+        runner.close(failed)
 
 
-def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -> MeshResult:
-    """The stages of :func:`mesh_polygon`, reporting to ``run`` (None: no callbacks)."""
+def _run_stages(
+    polygon: object, options: MeshOptions, run: Run | None, runner: PieceRunner
+) -> MeshResult:
+    """The stages of :func:`mesh_polygon`, reporting to ``run`` (None: no callbacks) and
+    running the thick pieces' own stages through ``runner``."""
     from .decompose import DecomposeOptions, decompose
     from .mesh import finalize_mesh
     from .refine import refine_quads
 
-    options = options or MeshOptions()
     timings: dict[str, float] = {}
 
     def report(stage: str, fraction: float, end: float | None = None) -> None:
@@ -196,7 +211,9 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
         armed = None
         if corridor is None and corridor_why:
             # not a corridor as a whole: an arm (a corridor from one tip) and the body behind it
-            armed = _mesh_arm_and_body(dec, options, run.cancel if run is not None else None)
+            armed = _mesh_arm_and_body(
+                dec, options, run.cancel if run is not None else None, runner.executor
+            )
         if corridor is not None:
             asm = Assembler()
             gl = asm.add_vertices(corridor.vertices)
@@ -207,11 +224,11 @@ def _run_stages(polygon: object, options: MeshOptions | None, run: Run | None) -
             asm, pieces, thin, dec = armed
         else:
             try:
-                asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings)
+                asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
                 if not corridor_why:  # several pieces, one of them too crowded: try an arm
                     stop = run.cancel if run is not None else None
-                    armed = _mesh_arm_and_body(dec, options, stop)
+                    armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
                 if armed is None and corridor_why:
                     raise type(exc)(
                         f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
@@ -270,14 +287,17 @@ def _more_help(options: MeshOptions) -> str:
     )
 
 
-def _mesh_thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]):
+def _mesh_thick_and_thin(
+    dec, options: MeshOptions, report, timings: dict[str, float], runner: PieceRunner
+):
     """Bishop's construction proper: every thick piece's map, disk mesh and push-forward, then
     the thin parts glued onto them, in the adaptive loop (one (n, depth step) for all pieces).
+    The pieces' own stages run through ``runner`` (in parallel when it has an executor).
     Returns the assembler, the thick-piece results and the thin-part results. A failure
     carries what the thick pieces had computed (:meth:`quadmesh.thick.KeptStages.attach`)."""
     kept = KeptStages()
     try:
-        return _thick_and_thin(dec, options, report, timings, kept)
+        return _thick_and_thin(dec, options, report, timings, kept, runner)
     except QuadmeshError as exc:
         if not isinstance(exc, Cancelled):
             kept.attach(exc)
@@ -300,19 +320,35 @@ def _no_maps(errors: list[ConformalMapError]) -> ConformalMapError:
     return err
 
 
-def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float], kept: KeptStages):
-    """The stages of :func:`_mesh_thick_and_thin`, keeping the pieces' work in ``kept``."""
+def _thick_and_thin(
+    dec,
+    options: MeshOptions,
+    report,
+    timings: dict[str, float],
+    kept: KeptStages,
+    runner: PieceRunner,
+):
+    """The stages of :func:`_mesh_thick_and_thin`, keeping the pieces' work in ``kept``.
+    Every piece's result is taken in piece order, so ``kept`` and the adaptive loop see what
+    the serial run sees, wherever the pieces ran."""
+
+    def share(stage: str, lo: float, width: float):
+        return lambda a, b: report(stage, lo + width * a, lo + width * b)
+
     work: list[PieceWork] = kept.work
+    tasks = [(piece, options, dec) for piece in dec.thick]
+    # a piece's work grows with its arcs I_j: one per polygon vertex it holds, one per crosscut
+    cost = [int(np.sum(np.asarray(p.source) >= 0)) + len(p.crosscuts) for p in dec.thick]
+    stage = share("conformal map", 0.1, 0.3)
     unmapped: list[ConformalMapError] = []
-    for i, piece in enumerate(dec.thick):
-        m = len(dec.thick)
-        report("conformal map", 0.1 + 0.3 * i / m, 0.1 + 0.3 * (i + 1) / m)
-        try:
-            work.append(prepare_piece(piece, options, timings, dec))
-        except ConformalMapError as exc:
-            # the other pieces' maps are still solved (a successful run needs them too), so
-            # that the failure names every piece without a map, not only the first
-            unmapped.append(exc)
+    with closing(runner.run(prepare_task, tasks, timings, stage, cost)) as it:
+        for pd, _ in it:
+            if isinstance(pd, ConformalMapError):
+                # the other pieces' maps are still solved (a successful run needs them too),
+                # so that the failure names every piece without a map, not only the first
+                unmapped.append(pd)
+            else:
+                work.append(attach_piece(pd, dec))
     if unmapped:
         raise _no_maps(unmapped)
 
@@ -325,11 +361,13 @@ def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]
         while True:
             disks = kept.start(n, step)
             bad_kind: dict[str, tuple[float, float, int]] = {}
-            for i, pd in enumerate(work):
-                report("disk mesh", 0.4 + 0.3 * i / len(work), 0.4 + 0.3 * (i + 1) / len(work))
-                disk, image = disk_and_image(pd, n, step, dmax, options, timings)
-                disks.append((disk, image))
-                collect_angle_faults(pd, disk, image, bad_kind)
+            tasks = [(pd, n, step, dmax, options) for pd in work]
+            stage = share("disk mesh", 0.4, 0.3)
+            with closing(runner.run(disk_task, tasks, timings, stage, cost)) as it:
+                for pd, out in zip(work, it):
+                    disk, image = apply_disk(pd, out)
+                    disks.append((disk, image))
+                    collect_angle_faults(pd, disk, image, bad_kind)
             if not bad_kind:
                 break
             what = ", ".join(
@@ -384,12 +422,15 @@ def _thick_and_thin(dec, options: MeshOptions, report, timings: dict[str, float]
     return asm, pieces, thin
 
 
-def _mesh_arm_and_body(dec, options: MeshOptions, cancel: CancelCallback | None):
+def _mesh_arm_and_body(
+    dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
+):
     """An arm of the polygon meshed as a corridor (:func:`~quadmesh.thin.corridor.arm_and_body`)
     and the body behind it meshed by :func:`mesh_polygon` (recursively: the body may have arms
     again), glued along the cut by index: the arm's last rung takes the body mesh's points on
     it. Returns (assembler, thick-piece results, thin-part results, the body's decomposition),
-    or None when there is no arm or either part cannot be meshed."""
+    or None when there is no arm or either part cannot be meshed. ``executor``: for the body's
+    thick pieces (:func:`mesh_polygon`)."""
     from .errors import QuadmeshError
     from .thin.corridor import arm_and_body, mesh_arm
 
@@ -398,7 +439,8 @@ def _mesh_arm_and_body(dec, options: MeshOptions, cancel: CancelCallback | None)
         return None
     lay, body = split
     try:
-        inner = mesh_polygon(np.column_stack([body.real, body.imag]), options, cancel=cancel)
+        body_xy = np.column_stack([body.real, body.imag])
+        inner = mesh_polygon(body_xy, options, cancel=cancel, executor=executor)
     except Cancelled:
         raise
     except QuadmeshError:

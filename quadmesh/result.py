@@ -92,6 +92,11 @@ class MeshOptions:
             bounding-box diagonal, ``Polygon.diameter``).
             Every chord of blocks gets ceil(its longest edge / size) segments; blocks holding
             a corner below 60° stay whole.
+        jobs: worker processes for the thick pieces' own stages (map, arcs, disk mesh,
+            push-forward, repair) of ``method="bishop"``; 1 = all in this process. Used only
+            when the decomposition has at least two thick pieces; the mesh is the same bit for
+            bit (:mod:`quadmesh.parallel`). Each call starts its pool, so it pays only when the
+            pieces take seconds each (measured in the README).
     """
 
     n: int = 2
@@ -111,6 +116,7 @@ class MeshOptions:
     refine: int = 1
     method: str = "bishop"
     size: float | None = None
+    jobs: int = 1
 
     def __post_init__(self) -> None:
         def real(name: str) -> float:
@@ -158,6 +164,7 @@ class MeshOptions:
             raise ValueError(
                 f"method must be one of {', '.join(repr(m) for m in METHODS)}, got {self.method!r}"
             )
+        integer("jobs", 1)
         if self.size is not None and not real("size") > 0:
             raise ValueError(f"size must be a positive length, got {self.size!r}")
 

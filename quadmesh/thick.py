@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -24,6 +25,7 @@ __all__ = [
     "ANGLE_MIN",
     "ANGLE_TOL",
     "KeptStages",
+    "OwnerNamer",
     "PieceWork",
     "angle_tol",
     "collect_angle_faults",
@@ -74,22 +76,31 @@ class PieceWork:
         return self.name(self.owners[j])
 
 
-def owner_namer(dec, piece) -> Callable[[tuple[str, int]], str]:
+@dataclass(frozen=True)
+class OwnerNamer:
     """``name(owner)`` for the arcs of ``piece`` (an entry of ``dec.thick``): ("vertex", k) ->
     the polygon vertex behind piece vertex k, ("crosscut", s) -> the mouth of the narrow
-    passage behind crosscut stretch s, both in the user's numbering and coordinates."""
-    poly = dec.polygon
-    source = np.asarray(piece.source)
+    passage behind crosscut stretch s, both in the user's numbering and coordinates. A class
+    rather than a closure so that a :class:`PieceWork` can be sent to a worker process."""
 
-    def name(owner: tuple[str, int]) -> str:
+    dec: Any
+    piece: Any
+
+    def __call__(self, owner: tuple[str, int]) -> str:
+        poly, piece = self.dec.polygon, self.piece
         kind, k = owner
+        source = np.asarray(piece.source)
         if kind == "vertex" and source[k] >= 0:
             return poly.describe_vertex(int(source[k]))
         if kind == "crosscut":
-            return "the mouth of " + dec.describe_channel(piece.crosscuts[k].channel)
+            return "the mouth of " + self.dec.describe_channel(piece.crosscuts[k].channel)
         return f"the point {poly.user_point(piece.z[k])}"
 
-    return name
+
+def owner_namer(dec, piece) -> Callable[[tuple[str, int]], str]:
+    """``name(owner)`` for the arcs of ``piece`` (an entry of ``dec.thick``): see
+    :class:`OwnerNamer`."""
+    return OwnerNamer(dec, piece)
 
 
 def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=None) -> PieceWork:
