@@ -37,7 +37,7 @@ LOD_CELLS = 200_000
 LOD_DIVISIONS = 256
 #: idle time after a zoom step or a toggle before the full-detail frame is drawn
 LOD_SETTLE_MS = 250
-#: grid (per axis, over a heavy surface's bounding box) of the vertex clustering that stands in,
+#: grid (per axis, over a heavy part's bounding box) of the vertex clustering that stands in,
 #: in settled frames, for the cells narrower than half a grid step (see :func:`fine_split`)
 LOD_FINE_DIVISIONS = 512
 #: settled frames use that split while one grid step is at most this many screen pixels (so
@@ -69,10 +69,13 @@ def _subset(part: LayerPart, keep: np.ndarray, label: str) -> LayerPart:
     )
 
 
-def _cluster(part: LayerPart, mesh: Any, divisions: int, label: str) -> LayerPart:
+def _cluster(
+    part: LayerPart, mesh: Any, divisions: int, label: str, inverse: Isometry | None = None
+) -> LayerPart:
     """Vertex clustering of ``mesh`` (cells of ``part``) on a ``divisions``² grid over its
     bounding box; each output triangle keeps the colour value of one of the input cells it
-    covers (point colour values are first averaged per cell)."""
+    covers (point colour values are first averaged per cell).  Disk parts: ``inverse`` undoes
+    the automorphism ``mesh`` is moved by (None: it is not moved)."""
     from vtkmodules.vtkFiltersCore import vtkQuadricClustering
 
     if part.scalars is not None and part.scalars in mesh.point_data.keys():
@@ -90,6 +93,8 @@ def _cluster(part: LayerPart, mesh: Any, divisions: int, label: str) -> LayerPar
     if part.disk_z is not None:
         pts = np.asarray(light.points)
         disk_z = (pts[:, 0] + 1j * pts[:, 1]) / part.disk_scale
+        if inverse is not None:
+            disk_z = np.asarray(inverse(disk_z))
     return LayerPart(
         light,
         color=part.color,
@@ -103,34 +108,39 @@ def _cluster(part: LayerPart, mesh: Any, divisions: int, label: str) -> LayerPar
     )
 
 
-def fine_split(parts: list[LayerPart]) -> tuple[float, list[LayerPart]] | None:
+def fine_split(
+    parts: list[LayerPart], inverse: Isometry | None = None
+) -> tuple[float, list[LayerPart]] | None:
     """What a settled frame draws for the heavy ``parts`` of a layer while their finest cells
-    are below pixel size: (grid step, parts), or None when no heavy part is a surface or no
-    surface cell is narrower than half a grid step.
+    are below pixel size: (grid step, parts), or None when a heavy part is made of points or
+    no cell is narrower than half a grid step.
 
-    The grid step is the largest extent of a heavy surface's bounding box divided by
-    :data:`LOD_FINE_DIVISIONS`.  Every cell at least half a step wide (the large cells of a
-    graded mesh, with their edges) is kept as it is; the narrower cells of each surface are
-    replaced by their vertex clustering on that grid, and narrower wireframe cells (edges)
-    are left out.  Build it while the parts are untransformed.
+    The grid step is the largest extent of a heavy surface's bounding box (of a heavy part's
+    when the layer has only lines) divided by :data:`LOD_FINE_DIVISIONS`.  Every cell at
+    least half a step wide (the large cells of a graded mesh, with their edges) is kept as it
+    is; the narrower cells of each surface are replaced by their vertex clustering on that
+    grid, and narrower wireframe cells (edges) are left out.  Disk parts moved by an
+    automorphism are split as they are on screen (``inverse``: its inverse, for the disk
+    coordinates of the clustering).
     """
-    surfaces = [p for p in parts if p.style == "surface"]
-    if not surfaces or any(p.style == "points" for p in parts):
+    surfaces = [p for p in parts if p.style == "surface"] or parts
+    if not parts or any(p.style == "points" for p in parts):
         return None
     step = (
         max(max(b[1] - b[0], b[3] - b[2]) for b in (p.mesh.bounds for p in surfaces))
         / LOD_FINE_DIVISIONS
     )
     bigs = [cell_widths(p) >= 0.5 * step for p in parts]
-    if all(big.all() for p, big in zip(parts, bigs, strict=True) if p.style == "surface"):
-        return None  # no surface cell is that small: nothing to save
+    if all(big.all() for big in bigs):
+        return None  # no cell is that small: nothing to save
     out = []
     for p, big in zip(parts, bigs, strict=True):
         if big.any():
             out.append(_subset(p, big, f"{p.label} (large cells)"))
         if p.style == "surface" and not big.all():
             fine = p.mesh.remove_cells(np.flatnonzero(big)) if big.any() else p.mesh
-            out.append(_cluster(p, fine, LOD_FINE_DIVISIONS, f"{p.label} (sub-pixel cells)"))
+            label = f"{p.label} (sub-pixel cells)"
+            out.append(_cluster(p, fine, LOD_FINE_DIVISIONS, label, inverse))
     return step, out
 
 
@@ -166,6 +176,10 @@ class LayerState:
     fine_parts: list[LayerPart] = field(default_factory=list)
     fine_actors: list[Any] = field(default_factory=list)
     fine_step: float = 0.0
+    #: the disk automorphism the split of disk parts was made for (None: the identity)
+    fine_key: Any = None
+    #: the layer has a split and disk parts (remade for each automorphism)
+    fine_disk: bool = False
     visible: bool = True
     color: str | None = None
     opacity: float | None = None
@@ -361,9 +375,10 @@ class View2D(QWidget):
         light = [light_stand_in(p) for p in drawn]
         st.heavy = [p.n_cells > LOD_CELLS for p in drawn]
         st.light_parts = [p for p in light if p is not None]
-        # a layer of dense lines alone gets no split: left out, they would lose their tone
         split = fine_split([p for p, h in zip(drawn, st.heavy, strict=True) if h])
         st.fine_step, st.fine_parts = split if split is not None else (0.0, [])
+        st.fine_key = None
+        st.fine_disk = any(p.disk_z is not None for p in st.fine_parts)
         st.actors = add_layer(self.plotter, geometry, visible=False)
         st.light_actors = add_layer(
             self.plotter, LayerGeometry(name, geometry.view, st.light_parts), visible=False
@@ -374,6 +389,7 @@ class View2D(QWidget):
         self._apply_style(st)
         if self.transform is not None:
             self._transform_state(st)
+            self._resplit(st)
         self._show(st)
 
     def _detach(self, st: LayerState) -> LayerState:
@@ -387,22 +403,28 @@ class View2D(QWidget):
             st.fine_parts,
             st.fine_actors,
             st.fine_step,
+            st.fine_key,
+            st.fine_disk,
         )
         for a in old.actors + old.light_actors + old.fine_actors:
             a.SetVisibility(False)
         for bar in self._bars(old):
             bar.SetVisibility(False)
         st.geometry, st.actors, st.heavy, st.light_parts, st.light_actors = None, [], [], [], []
-        st.fine_parts, st.fine_actors, st.fine_step = [], [], 0.0
+        st.fine_parts, st.fine_actors, st.fine_step, st.fine_key = [], [], 0.0, None
+        st.fine_disk = False
         return old
 
     def _attach(self, st: LayerState, geometry: LayerGeometry, old: LayerState) -> None:
         st.geometry, st.actors, st.heavy = geometry, old.actors, old.heavy
         st.light_parts, st.light_actors = old.light_parts, old.light_actors
         st.fine_parts, st.fine_actors, st.fine_step = old.fine_parts, old.fine_actors, old.fine_step
+        st.fine_key, st.fine_disk = old.fine_key, old.fine_disk
         self._apply_style(st)
         if self.transform is not None or self._stale:
             self._transform_state(st)
+            if not self.interacting:
+                self._resplit(st)
         self._show(st)
 
     def _bars(self, st: LayerState) -> list[Any]:
@@ -457,12 +479,12 @@ class View2D(QWidget):
         """Whether the settled frame draws layer ``st`` by its :func:`fine_split` (the cells
         narrower than half a grid step by their clustering, the larger ones as they are): while
         one grid step is at most :data:`LOD_SUBPIXEL` device pixels.  Never while
-        :attr:`full_detail` is set (screenshots), nor for disk parts moved by an automorphism
-        (it changes which cells are small)."""
+        :attr:`full_detail` is set (screenshots), nor for disk parts whose split was made for
+        another automorphism (remade once the user lets go, see :meth:`_resplit`)."""
         if self.full_detail or not st.fine_parts:
             return False
-        if self.transform is not None and any(p.disk_z is not None for p in st.fine_parts):
-            return False
+        if st.fine_disk and st.fine_key is not self.transform:
+            return False  # made for another automorphism (until the next _resplit)
         return st.fine_step <= LOD_SUBPIXEL * self.device_pixel_size()
 
     def _update_detail(self, *_: Any) -> None:
@@ -506,6 +528,7 @@ class View2D(QWidget):
         for st in self.layers.values():
             if self._stale:
                 self._transform_state(st)
+            self._resplit(st)
             self._show(st)
         self._stale = False
         if render and self._light_drawn:
@@ -577,6 +600,34 @@ class View2D(QWidget):
         self._stale = self._stale or self.interacting
         for st in self.layers.values():
             self._transform_state(st)
+            if not self.interacting:
+                self._resplit(st)
+
+    def _resplit(self, st: LayerState) -> None:
+        """Remake the :func:`fine_split` of a layer's disk parts for the automorphism they are
+        moved by now (it changes which cells are small); call once they have been moved."""
+        if st.geometry is None or not st.fine_disk or st.fine_key is self.transform:
+            return
+        heavy = [p for p, h in zip(self._drawn_parts(st), st.heavy, strict=True) if h]
+        inverse = None if self.transform is None else self.transform.inverse()
+        split = fine_split(heavy, inverse)
+        step, parts = split if split is not None else (0.0, [])
+        st.fine_key = self.transform
+        if [p.label for p in parts] == [p.label for p in st.fine_parts]:
+            # the same actors draw the new split: they keep their place in the drawing order
+            for actor, part in zip(st.fine_actors, parts, strict=True):
+                actor.mapper.SetInputData(part.mesh)
+            st.fine_step, st.fine_parts = step, parts
+            return
+        for a in st.fine_actors:
+            self.plotter.remove_actor(a, render=False)
+        st.fine_step, st.fine_parts = step, parts
+        st.fine_actors = add_layer(
+            self.plotter,
+            LayerGeometry(st.geometry.name, st.geometry.view, st.fine_parts),
+            visible=False,
+        )
+        self._apply_style(st)
 
     def _transform_state(self, st: LayerState) -> None:
         """Move the disk parts of ``st``; while the user interacts, only the drawn ones (the

@@ -279,3 +279,35 @@ def test_screenshot_draws_the_true_geometry(graded, tmp_path):
     assert [True, True, False, False, False] in frames
     assert frames[-1] == [False, False, True, True, True]
     assert not v.full_detail
+
+
+def test_disk_split_is_remade_for_the_automorphism_on_release(graded, qtbot):
+    """After a mouse drag in the disk view the split follows the automorphism: it is made for
+    the moved cells (those small on screen now), and every part sits at g(disk_z)."""
+    from PySide6.QtCore import Qt
+
+    from app.views import cell_widths
+
+    d = graded.disk
+    st = d.layers["region_w"]
+    assert st.fine_disk and d.subpixel(st) and st.fine_key is None
+    w = d.plotter
+    qtbot.mousePress(w, Qt.MouseButton.LeftButton, pos=_pos(d, 0.1 + 0.05j))
+    qtbot.mouseMove(w, _pos(d, 0.3 + 0.2j))
+    qtbot.mouseMove(w, _pos(d, 0.5 + 0.4j))
+    assert d.interacting and not d.subpixel(st)  # the light stand-ins while dragging
+    qtbot.mouseRelease(w, Qt.MouseButton.LeftButton, pos=_pos(d, 0.5 + 0.4j))
+    assert not d.interacting
+    g = d.transform
+    assert g is not None and st.fine_key is g and d.subpixel(st)
+    heavy = [p for p, h in zip(d._drawn_parts(st), st.heavy, strict=True) if h]
+    large = [p for p in st.fine_parts if p.label.endswith("(large cells)")]
+    for part in heavy:
+        n_big = int((cell_widths(part) >= 0.5 * st.fine_step).sum())
+        got = [p.n_cells for p in large if p.label == f"{part.label} (large cells)"]
+        assert got == ([n_big] if n_big else [])
+    for part in st.fine_parts:
+        pts = np.asarray(part.mesh.points)
+        w_ = np.asarray(g(part.disk_z)) * part.disk_scale
+        np.testing.assert_allclose(pts[:, 0] + 1j * pts[:, 1], w_, atol=1e-9)
+    assert _visible(st.fine_actors) == [True] * len(st.fine_actors)
