@@ -12,9 +12,14 @@ the disk view (an automorphism applied to the disk layers).  Toggles, colour swi
 steps and drags draw layers with more than ``app.views.LOD_CELLS`` cells light (surfaces
 vertex-clustered, dense wireframes left out) and full detail once the user stops (the release
 of the drag; 0.25 s after the last toggle or zoom step): "full ms" is that full-detail frame
-of the plane view. "load" is the 1-minute load average after the row's operations (the
-benchmark itself counts about 1): Mesa's software OpenGL renders on every core, so other
-processes slow each frame down.
+of the plane view at the zoom the operations left (the whole mesh in view, where the cells of
+heavy layers that are under a pixel are drawn by a clustering, see ``app.views.fine_split``),
+"true ms" the same frame with
+the true geometry (as a screenshot draws it), "zoomed ms" the settled frame after zooming in
+by the factor shown, the first power of 2 at which the final mesh's cells are no longer
+sub-pixel (the true geometry, most of it off screen). "load" is the 1-minute load average
+after the row's operations (the benchmark itself counts about 1): Mesa's software OpenGL
+renders on every core, so other processes slow each frame down.
 """
 
 from __future__ import annotations
@@ -58,6 +63,22 @@ def time_operations(win: object, app: object, repeat: int = 5) -> dict[str, floa
     res["zoom"] = _median_ms(zoom, repeat, app)
     plane.end_interaction(render=False)
     res["full"] = _median_ms(plane.render, repeat, app)
+    # the same frame with the true geometry whatever the zoom (what a screenshot draws)
+    plane.set_full_detail(True)
+    res["true"] = _median_ms(plane.render, repeat, app)
+    plane.set_full_detail(False)
+    # zoomed in (about the view's centre) until the final mesh's cells are no longer
+    # sub-pixel, so that its settled frame draws the true geometry of the part on screen
+    st = plane.layers.get("final_mesh")
+    cam = plane.plotter.camera
+    factor = 1
+    while st is not None and plane.subpixel(st) and factor < 1024:
+        cam.zoom(2.0)
+        factor *= 2
+    res["zoomed"] = _median_ms(plane.render, repeat, app)
+    res["factor"] = factor
+    cam.zoom(1.0 / factor)
+    plane.render()
 
     win._on_disk_mouse("press", 0.1 + 0.05j, 0)  # type: ignore[attr-defined]
     steps = iter([0.1 + 0.05j + 0.01 * k * (1 + 1j) for k in range(1, 4 * repeat + 3)])
@@ -97,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"{'polygon':<20} {'quads':>9} {'mesh s':>7} {'show s':>7} "
         f"{'toggle ms':>10} {'colour ms':>10} {'zoom ms':>8} {'drag ms':>8} {'release ms':>10} "
-        f"{'full ms':>8} {'load':>5}"
+        f"{'full ms':>8} {'true ms':>8} {'zoomed ms':>12} {'load':>5}"
     )
     for name in names:
         t = time.perf_counter()
@@ -113,7 +134,8 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"{name:<20} {r.mesh.n_quads:>9} {t_mesh:>7.1f} {t_show:>7.2f} {ms['toggle']:>10.1f} "
             f"{ms['colour']:>10.1f} {ms['zoom']:>8.1f} {ms['drag']:>8.1f} {ms['release']:>10.1f} "
-            f"{ms['full']:>8.1f} {load:>5.2f}",
+            f"{ms['full']:>8.1f} {ms['true']:>8.1f} {ms['zoomed']:>7.1f} ×{ms['factor']:<4.0f} "
+            f"{load:>5.2f}",
             flush=True,
         )
     win.shutdown()

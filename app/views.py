@@ -9,7 +9,7 @@ the middle button pans and the wheel zooms.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -20,7 +20,15 @@ from pyvistaqt import QtInteractor
 from quadmesh.hyperbolic.isometry import Isometry
 from quadmesh.render import LayerGeometry, LayerPart, add_layer, fit_camera
 
-__all__ = ["LOD_CELLS", "LayerState", "View2D", "light_stand_in"]
+__all__ = [
+    "LOD_CELLS",
+    "LOD_SUBPIXEL",
+    "LayerState",
+    "View2D",
+    "cell_widths",
+    "fine_split",
+    "light_stand_in",
+]
 
 #: parts with more cells than this are drawn lighter while the user interacts (a drag, a zoom
 #: step, a layer toggle): surfaces by a vertex-clustered copy, wireframes not at all
@@ -29,6 +37,111 @@ LOD_CELLS = 200_000
 LOD_DIVISIONS = 256
 #: idle time after a zoom step or a toggle before the full-detail frame is drawn
 LOD_SETTLE_MS = 250
+#: grid (per axis, over a heavy part's bounding box) of the vertex clustering that stands in,
+#: in settled frames, for the cells narrower than half a grid step (see :func:`fine_split`)
+LOD_FINE_DIVISIONS = 512
+#: settled frames use that split while one grid step is at most this many screen pixels (so
+#: every cell it replaces is under one pixel wide); zoomed in further they draw the true parts
+LOD_SUBPIXEL = 2.0
+
+
+def cell_widths(part: LayerPart) -> np.ndarray:
+    """Width of each cell of ``part`` in world units: the square root of the area of a 2-D
+    cell, the length of a line."""
+    sizes = part.mesh.compute_cell_sizes(length=True, area=True, volume=False)
+    area = np.asarray(sizes.cell_data["Area"])
+    length = np.asarray(sizes.cell_data["Length"])
+    return np.where(area > 0, np.sqrt(np.abs(area)), length)
+
+
+def _subset(part: LayerPart, keep: np.ndarray, label: str) -> LayerPart:
+    """The cells ``keep`` (a boolean mask) of ``part`` as a part of their own (no colour bar;
+    disk parts keep the disk coordinates of the points they use)."""
+    sub = part.mesh.remove_cells(np.flatnonzero(~keep), pass_point_ids=True)
+    ids = np.asarray(sub.point_data["vtkOriginalPointIds"])
+    del sub.point_data["vtkOriginalPointIds"]
+    return replace(
+        part,
+        mesh=sub,
+        scalar_bar_title=None,
+        label=label,
+        disk_z=None if part.disk_z is None else part.disk_z[ids],
+    )
+
+
+def _cluster(
+    part: LayerPart, mesh: Any, divisions: int, label: str, inverse: Isometry | None = None
+) -> LayerPart:
+    """Vertex clustering of ``mesh`` (cells of ``part``) on a ``divisions``² grid over its
+    bounding box; each output triangle keeps the colour value of one of the input cells it
+    covers (point colour values are first averaged per cell).  Disk parts: ``inverse`` undoes
+    the automorphism ``mesh`` is moved by (None: it is not moved)."""
+    from vtkmodules.vtkFiltersCore import vtkQuadricClustering
+
+    if part.scalars is not None and part.scalars in mesh.point_data.keys():
+        mesh = mesh.point_data_to_cell_data()
+    f = vtkQuadricClustering()
+    f.SetInputData(mesh)
+    f.AutoAdjustNumberOfDivisionsOff()
+    f.SetNumberOfDivisions(divisions, divisions, 1)
+    f.CopyCellDataOn()
+    f.Update()
+    import pyvista as pv
+
+    light = pv.wrap(f.GetOutput())
+    disk_z = None
+    if part.disk_z is not None:
+        pts = np.asarray(light.points)
+        disk_z = (pts[:, 0] + 1j * pts[:, 1]) / part.disk_scale
+        if inverse is not None:
+            disk_z = np.asarray(inverse(disk_z))
+    return LayerPart(
+        light,
+        color=part.color,
+        opacity=part.opacity,
+        scalars=part.scalars,
+        cmap=part.cmap,
+        clim=part.clim,
+        label=label,
+        disk_z=disk_z,
+        disk_scale=part.disk_scale,
+    )
+
+
+def fine_split(
+    parts: list[LayerPart], inverse: Isometry | None = None
+) -> tuple[float, list[LayerPart]] | None:
+    """What a settled frame draws for the heavy ``parts`` of a layer while their finest cells
+    are below pixel size: (grid step, parts), or None when a heavy part is made of points or
+    no cell is narrower than half a grid step.
+
+    The grid step is the largest extent of a heavy surface's bounding box (of a heavy part's
+    when the layer has only lines) divided by :data:`LOD_FINE_DIVISIONS`.  Every cell at
+    least half a step wide (the large cells of a graded mesh, with their edges) is kept as it
+    is; the narrower cells of each surface are replaced by their vertex clustering on that
+    grid, and narrower wireframe cells (edges) are left out.  Disk parts moved by an
+    automorphism are split as they are on screen (``inverse``: its inverse, for the disk
+    coordinates of the clustering).
+    """
+    surfaces = [p for p in parts if p.style == "surface"] or parts
+    if not parts or any(p.style == "points" for p in parts):
+        return None
+    step = (
+        max(max(b[1] - b[0], b[3] - b[2]) for b in (p.mesh.bounds for p in surfaces))
+        / LOD_FINE_DIVISIONS
+    )
+    bigs = [cell_widths(p) >= 0.5 * step for p in parts]
+    if all(big.all() for big in bigs):
+        return None  # no cell is that small: nothing to save
+    out = []
+    for p, big in zip(parts, bigs, strict=True):
+        if big.any():
+            out.append(_subset(p, big, f"{p.label} (large cells)"))
+        if p.style == "surface" and not big.all():
+            fine = p.mesh.remove_cells(np.flatnonzero(big)) if big.any() else p.mesh
+            label = f"{p.label} (sub-pixel cells)"
+            out.append(_cluster(p, fine, LOD_FINE_DIVISIONS, label, inverse))
+    return step, out
 
 
 def light_stand_in(part: LayerPart) -> LayerPart | None:
@@ -44,35 +157,7 @@ def light_stand_in(part: LayerPart) -> LayerPart | None:
     """
     if part.n_cells <= LOD_CELLS or part.style != "surface":
         return None
-    from vtkmodules.vtkFiltersCore import vtkQuadricClustering
-
-    mesh = part.mesh
-    if part.scalars is not None and part.scalars in mesh.point_data.keys():
-        mesh = mesh.point_data_to_cell_data()
-    f = vtkQuadricClustering()
-    f.SetInputData(mesh)
-    f.AutoAdjustNumberOfDivisionsOff()
-    f.SetNumberOfDivisions(LOD_DIVISIONS, LOD_DIVISIONS, 1)
-    f.CopyCellDataOn()
-    f.Update()
-    import pyvista as pv
-
-    light = pv.wrap(f.GetOutput())
-    disk_z = None
-    if part.disk_z is not None:
-        pts = np.asarray(light.points)
-        disk_z = (pts[:, 0] + 1j * pts[:, 1]) / part.disk_scale
-    return LayerPart(
-        light,
-        color=part.color,
-        opacity=part.opacity,
-        scalars=part.scalars,
-        cmap=part.cmap,
-        clim=part.clim,
-        label=f"{part.label} (light)",
-        disk_z=disk_z,
-        disk_scale=part.disk_scale,
-    )
+    return _cluster(part, part.mesh, LOD_DIVISIONS, f"{part.label} (light)")
 
 
 @dataclass
@@ -86,6 +171,15 @@ class LayerState:
     #: stand-in parts and their actors, drawn instead of heavy surfaces while interacting
     light_parts: list[LayerPart] = field(default_factory=list)
     light_actors: list[Any] = field(default_factory=list)
+    #: settled frames with sub-pixel cells draw these instead of the heavy parts (see
+    #: :func:`fine_split`; fine_step is its grid step, 0 when the layer has no split)
+    fine_parts: list[LayerPart] = field(default_factory=list)
+    fine_actors: list[Any] = field(default_factory=list)
+    fine_step: float = 0.0
+    #: the disk automorphism the split of disk parts was made for (None: the identity)
+    fine_key: Any = None
+    #: the layer has a split and disk parts (remade for each automorphism)
+    fine_disk: bool = False
     visible: bool = True
     color: str | None = None
     opacity: float | None = None
@@ -219,7 +313,10 @@ class View2D(QWidget):
         self._stale = False  # heavy disk parts lag behind the transform
         self._light_drawn = False  # a light frame was drawn since begin_interaction
         self._samples = 0  # multisamples of the full-detail frames (kept while light)
+        self.full_detail = False  # True: settled frames draw the true geometry (screenshots)
         self.plotter.renderer.AddObserver("StartEvent", self._on_render_start)
+        # the window's StartEvent comes before its renderers gather their visible props
+        self.plotter.ren_win.AddObserver("StartEvent", self._update_detail)
         self._filter = _MouseFilter(self)
         self.plotter.installEventFilter(self._filter)
 
@@ -278,31 +375,56 @@ class View2D(QWidget):
         light = [light_stand_in(p) for p in drawn]
         st.heavy = [p.n_cells > LOD_CELLS for p in drawn]
         st.light_parts = [p for p in light if p is not None]
+        split = fine_split([p for p, h in zip(drawn, st.heavy, strict=True) if h])
+        st.fine_step, st.fine_parts = split if split is not None else (0.0, [])
+        st.fine_key = None
+        st.fine_disk = any(p.disk_z is not None for p in st.fine_parts)
         st.actors = add_layer(self.plotter, geometry, visible=False)
         st.light_actors = add_layer(
             self.plotter, LayerGeometry(name, geometry.view, st.light_parts), visible=False
         )
+        st.fine_actors = add_layer(
+            self.plotter, LayerGeometry(name, geometry.view, st.fine_parts), visible=False
+        )
         self._apply_style(st)
         if self.transform is not None:
             self._transform_state(st)
+            self._resplit(st)
         self._show(st)
 
     def _detach(self, st: LayerState) -> LayerState:
         """Hide the actors of ``st`` and move them (with its geometry) to a new state."""
-        old = LayerState(st.geometry, st.actors, st.heavy, st.light_parts, st.light_actors)
-        for a in old.actors + old.light_actors:
+        old = LayerState(
+            st.geometry,
+            st.actors,
+            st.heavy,
+            st.light_parts,
+            st.light_actors,
+            st.fine_parts,
+            st.fine_actors,
+            st.fine_step,
+            st.fine_key,
+            st.fine_disk,
+        )
+        for a in old.actors + old.light_actors + old.fine_actors:
             a.SetVisibility(False)
         for bar in self._bars(old):
             bar.SetVisibility(False)
         st.geometry, st.actors, st.heavy, st.light_parts, st.light_actors = None, [], [], [], []
+        st.fine_parts, st.fine_actors, st.fine_step, st.fine_key = [], [], 0.0, None
+        st.fine_disk = False
         return old
 
     def _attach(self, st: LayerState, geometry: LayerGeometry, old: LayerState) -> None:
         st.geometry, st.actors, st.heavy = geometry, old.actors, old.heavy
         st.light_parts, st.light_actors = old.light_parts, old.light_actors
+        st.fine_parts, st.fine_actors, st.fine_step = old.fine_parts, old.fine_actors, old.fine_step
+        st.fine_key, st.fine_disk = old.fine_key, old.fine_disk
         self._apply_style(st)
         if self.transform is not None or self._stale:
             self._transform_state(st)
+            if not self.interacting:
+                self._resplit(st)
         self._show(st)
 
     def _bars(self, st: LayerState) -> list[Any]:
@@ -312,13 +434,13 @@ class View2D(QWidget):
         return [bars[t] for t in st.geometry.scalar_bar_titles if t in bars.keys()]
 
     def _remove_actors(self, st: LayerState) -> None:
-        for a in st.actors + st.light_actors:
+        for a in st.actors + st.light_actors + st.fine_actors:
             self.plotter.remove_actor(a, render=False)
         if st.geometry is not None:
             for title in st.geometry.scalar_bar_titles:
                 if title in self.plotter.scalar_bars.keys():
                     self.plotter.remove_scalar_bar(title, render=False)
-        st.actors, st.light_actors = [], []
+        st.actors, st.light_actors, st.fine_actors = [], [], []
 
     def clear_layers(self, names: list[str] | None = None) -> None:
         """Remove the geometry of the given layers (all when None)."""
@@ -334,14 +456,49 @@ class View2D(QWidget):
 
     def _show(self, st: LayerState) -> None:
         """Visibility of the actors of ``st``: heavy parts give way to their light stand-ins
-        (or to nothing) while the user interacts."""
+        (or to nothing) while the user interacts, and in the settled frame too while their
+        cells are below pixel size (see :meth:`subpixel`)."""
         light = self.interacting
+        fine = not light and self.subpixel(st)
         for a, heavy in zip(st.actors, st.heavy, strict=True):
-            a.SetVisibility(st.visible and not (light and heavy))
+            a.SetVisibility(st.visible and not ((light or fine) and heavy))
         for a in st.light_actors:
             a.SetVisibility(st.visible and light)
+        for a in st.fine_actors:
+            a.SetVisibility(st.visible and fine)
         for bar in self._bars(st):
             bar.SetVisibility(st.visible)
+
+    # ------------------------------------------------------------------ settled detail
+    def device_pixel_size(self) -> float:
+        """World length of one device pixel of the render window (parallel projection)."""
+        h = self.plotter.ren_win.GetSize()[1]
+        return 2.0 * self.plotter.camera.parallel_scale / max(h, 1)
+
+    def subpixel(self, st: LayerState) -> bool:
+        """Whether the settled frame draws layer ``st`` by its :func:`fine_split` (the cells
+        narrower than half a grid step by their clustering, the larger ones as they are): while
+        one grid step is at most :data:`LOD_SUBPIXEL` device pixels.  Never while
+        :attr:`full_detail` is set (screenshots), nor for disk parts whose split was made for
+        another automorphism (remade once the user lets go, see :meth:`_resplit`)."""
+        if self.full_detail or not st.fine_parts:
+            return False
+        if st.fine_disk and st.fine_key is not self.transform:
+            return False  # made for another automorphism (until the next _resplit)
+        return st.fine_step <= LOD_SUBPIXEL * self.device_pixel_size()
+
+    def _update_detail(self, *_: Any) -> None:
+        """Before each frame of the render window: settled frames follow the camera (light
+        stand-ins while the heavy cells are sub-pixel, true geometry once they are not)."""
+        if not self.interacting:
+            for st in self.layers.values():
+                if len(st.actors) == len(st.heavy):  # not while set_layer adds actors
+                    self._show(st)
+
+    def set_full_detail(self, on: bool) -> None:
+        """Draw every settled frame with the true geometry, sub-pixel or not (screenshots)."""
+        self.full_detail = on
+        self._update_detail()
 
     # ------------------------------------------------------------------ interaction detail
     def begin_interaction(self) -> None:
@@ -371,6 +528,7 @@ class View2D(QWidget):
         for st in self.layers.values():
             if self._stale:
                 self._transform_state(st)
+            self._resplit(st)
             self._show(st)
         self._stale = False
         if render and self._light_drawn:
@@ -411,6 +569,7 @@ class View2D(QWidget):
             return
         pairs = list(zip(self._drawn_parts(st), st.actors, strict=True))
         pairs += list(zip(st.light_parts, st.light_actors, strict=True))
+        pairs += list(zip(st.fine_parts, st.fine_actors, strict=True))
         for part, actor in pairs:
             if st.color is not None and part.scalars is None and part.style != "points":
                 actor.prop.color = st.color
@@ -441,6 +600,34 @@ class View2D(QWidget):
         self._stale = self._stale or self.interacting
         for st in self.layers.values():
             self._transform_state(st)
+            if not self.interacting:
+                self._resplit(st)
+
+    def _resplit(self, st: LayerState) -> None:
+        """Remake the :func:`fine_split` of a layer's disk parts for the automorphism they are
+        moved by now (it changes which cells are small); call once they have been moved."""
+        if st.geometry is None or not st.fine_disk or st.fine_key is self.transform:
+            return
+        heavy = [p for p, h in zip(self._drawn_parts(st), st.heavy, strict=True) if h]
+        inverse = None if self.transform is None else self.transform.inverse()
+        split = fine_split(heavy, inverse)
+        step, parts = split if split is not None else (0.0, [])
+        st.fine_key = self.transform
+        if [p.label for p in parts] == [p.label for p in st.fine_parts]:
+            # the same actors draw the new split: they keep their place in the drawing order
+            for actor, part in zip(st.fine_actors, parts, strict=True):
+                actor.mapper.SetInputData(part.mesh)
+            st.fine_step, st.fine_parts = step, parts
+            return
+        for a in st.fine_actors:
+            self.plotter.remove_actor(a, render=False)
+        st.fine_step, st.fine_parts = step, parts
+        st.fine_actors = add_layer(
+            self.plotter,
+            LayerGeometry(st.geometry.name, st.geometry.view, st.fine_parts),
+            visible=False,
+        )
+        self._apply_style(st)
 
     def _transform_state(self, st: LayerState) -> None:
         """Move the disk parts of ``st``; while the user interacts, only the drawn ones (the
@@ -448,7 +635,7 @@ class View2D(QWidget):
         parts = self._drawn_parts(st)
         if self.interacting:
             parts = [p for p, heavy in zip(parts, st.heavy, strict=True) if not heavy]
-        for part in parts + st.light_parts:
+        for part in parts + st.light_parts + st.fine_parts:
             if part.disk_z is None:
                 continue
             w = part.disk_z if self.transform is None else self.transform(part.disk_z)

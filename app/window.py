@@ -1757,11 +1757,20 @@ class MainWindow(QMainWindow):
         write_mesh(path, mesh, origin=origin, cell_data=result_cell_data(source))
 
     def save_screenshot(self, path: str | Path) -> None:
-        """Save a PNG of the whole window (views included, in full detail)."""
-        for v in (self.plane, self.disk):
-            v.end_interaction(render=False)
-            v.render()
-        if not self.grab().save(str(path)):
+        """Save a PNG of the whole window (views included, in full detail: the true geometry
+        even where the views show a light stand-in for sub-pixel cells)."""
+        views = (self.plane, self.disk)
+        try:
+            for v in views:
+                v.end_interaction(render=False)
+                v.set_full_detail(True)
+                v.render()
+            saved = self.grab().save(str(path))
+        finally:
+            for v in views:
+                v.set_full_detail(False)
+                v.render()
+        if not saved:
             raise OSError(f"could not write {path}")
 
     def last_folder(self) -> str:
