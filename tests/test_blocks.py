@@ -138,6 +138,15 @@ def test_tip_stays_whole_in_a_small_kite(name: str) -> None:
     assert ang[j] < 60.0 and np.all(others >= 60.0) and np.all(others <= 120.0 + 1e-9)
 
 
+def test_cli_says_the_tip_is_kept_in_a_kite(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "tri.json"
+    args = ["mesh", str(example_file("right_triangle_10deg")), "-o", str(out), "--method", "blocks"]
+    assert cli_main(args) == 0
+    said = capsys.readouterr().out
+    assert "1 corner below 60° kept whole in a tip kite" in said and "39 quads" in said
+    independent_check(out, load_example("right_triangle_10deg"), angle_tol=1e-9)
+
+
 @pytest.mark.parametrize("theta", np.linspace(0.5, 59.5, 60))
 def test_tip_kite_corners_for_every_tip_angle(theta: float) -> None:
     """The kite cut off a tip of angle θ < 60° at each admissible inner corner c has corners
