@@ -777,8 +777,9 @@ def test_option_controls_reach_mesh_options(main_window, qtbot):
     assert opts.rotations == 1 and opts.lemma_A == 16.0 and opts.conformal_tol == 1e-8
 
 
-def _wheel(view, x: float, y: float, notches: int) -> None:
-    """Turn the mouse wheel over ``view`` at widget pixel (x, y)."""
+def wheel(view, x: float, y: float, notches: int) -> None:
+    """Turn the mouse wheel ``notches`` notches (120 units each; negative: towards the user)
+    over ``view`` at widget pixel (x, y): a real QWheelEvent sent to the view's widget."""
     from PySide6.QtCore import QPointF
     from PySide6.QtGui import QWheelEvent
     from PySide6.QtWidgets import QApplication
@@ -809,7 +810,7 @@ def test_view_and_grid_controls_and_quit_by_mouse_and_keys(main_window, qtbot):
     view = win.plane
     cam = view.plotter.camera
     fitted = (cam.parallel_scale, tuple(cam.focal_point))
-    _wheel(view, 0.3 * view.plotter.width(), 0.6 * view.plotter.height(), 3)
+    wheel(view, 0.3 * view.plotter.width(), 0.6 * view.plotter.height(), 3)
     assert cam.parallel_scale < 0.6 * fitted[0]
     view.plotter.setFocus()
     keys(qtbot, win, "R")

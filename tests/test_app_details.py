@@ -9,7 +9,7 @@ import pytest
 from PySide6.QtCore import QPoint, Qt
 
 from tests.helpers import require_pipeline
-from tests.test_app import _pos, answer_file_dialog, click, keys, mesh_l_shape, press, tick
+from tests.test_app import _pos, answer_file_dialog, click, keys, mesh_l_shape, press, tick, wheel
 
 pytestmark = pytest.mark.gui
 
@@ -312,27 +312,12 @@ def test_failed_run_marks_the_place_it_names(main_window, qtbot):
 def test_the_wheel_zooms_about_the_cursor(meshed, qtbot):
     """A real wheel event over the plane view zooms in by 1.2 per notch and keeps the world
     point under the cursor where it was (zoom about the cursor, not the view's centre)."""
-    from PySide6.QtCore import QPointF
-    from PySide6.QtGui import QWheelEvent
-    from PySide6.QtWidgets import QApplication
-
     win = meshed
     view = win.plane
     w, h = view.plotter.width(), view.plotter.height()
     x, y = 0.25 * w, 0.7 * h  # off-centre
     before = view.to_world(x, y)
     scale = view.plotter.camera.parallel_scale
-    pos = QPointF(x, y)
-    ev = QWheelEvent(
-        pos,
-        view.plotter.mapToGlobal(pos),
-        QPoint(0, 0),
-        QPoint(0, 240),  # two notches
-        Qt.MouseButton.NoButton,
-        Qt.KeyboardModifier.NoModifier,
-        Qt.ScrollPhase.NoScrollPhase,
-        False,
-    )
-    QApplication.sendEvent(view.plotter, ev)
+    wheel(view, x, y, 2)
     assert view.plotter.camera.parallel_scale == pytest.approx(scale / 1.44, rel=1e-9)
     assert abs(view.to_world(x, y) - before) < 1e-9 * max(1.0, abs(before)) + 1e-6 * scale

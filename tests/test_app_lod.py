@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from tests.helpers import require_pipeline
-from tests.test_app import _pos, mesh_l_shape, tick
+from tests.test_app import _pos, mesh_l_shape, tick, wheel
 
 pytestmark = pytest.mark.gui
 
@@ -170,22 +170,7 @@ def graded(main_window, qtbot, monkeypatch):
 
 def _wheel(view, z: complex, notches: int) -> None:
     """A real wheel event of ``notches`` notches over the view at world point ``z``."""
-    from PySide6.QtCore import QPoint, QPointF, Qt
-    from PySide6.QtGui import QWheelEvent
-    from PySide6.QtWidgets import QApplication
-
-    pos = QPointF(*view.to_widget(z))
-    ev = QWheelEvent(
-        pos,
-        view.plotter.mapToGlobal(pos),
-        QPoint(0, 0),
-        QPoint(0, 120 * notches),
-        Qt.MouseButton.NoButton,
-        Qt.KeyboardModifier.NoModifier,
-        Qt.ScrollPhase.NoScrollPhase,
-        False,
-    )
-    QApplication.sendEvent(view.plotter, ev)
+    wheel(view, *view.to_widget(z), notches)
 
 
 def _check_pick(win, qtbot, k: int) -> None:
