@@ -31,6 +31,7 @@ from .errors import (
     Cancelled,
     ConformalMapError,
     DiskConstructionError,
+    MeshVerificationError,
     PartialResult,
     QuadmeshError,
     ThinPartError,
@@ -177,8 +178,18 @@ def _run_stages(
         if blocks is not None:
             report("verify", 0.9, 1.0)
             t0 = time.perf_counter()
-            mesh, mesh_origin, verification = finalize_mesh(poly, z_b, quads_b, origin)
+            try:
+                mesh, mesh_origin, verification = finalize_mesh(poly, z_b, quads_b, origin)
+            except MeshVerificationError as exc:
+                # never expected (every layout is checked as it is built), but a block mesh
+                # that fails the strict check is not returned: the paper's construction is
+                fallback = (
+                    f"the block mesh failed verification ({exc.args[0]}); meshed by the "
+                    "paper's construction"
+                )
+                blocks = None
             timings["verify"] = time.perf_counter() - t0
+        if blocks is not None:
             report("done", 1.0)
             return MeshResult(
                 polygon=poly,

@@ -176,6 +176,25 @@ def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
     assert res.pieces and res.verification.ok
 
 
+def test_a_block_mesh_failing_verification_falls_back(monkeypatch) -> None:
+    """A block mesh that fails the strict check is never returned: the run falls back to the
+    paper's construction and says so (a broken mesh is injected: one quad turned over)."""
+    import quadmesh.blocks as blocks
+
+    real = blocks.mesh_blocks
+
+    def broken(z, size=None):
+        pts, quads, lay, info = real(z, size)
+        quads = quads.copy()
+        quads[0] = quads[0][::-1]
+        return pts, quads, lay, info
+
+    monkeypatch.setattr(blocks, "mesh_blocks", broken)
+    res = mesh_polygon(L_SHAPE, MeshOptions(method="blocks"))
+    assert res.blocks is None and res.pieces and res.verification.ok
+    assert "failed verification" in res.fallback and "paper's construction" in res.fallback
+
+
 def test_octagon_closes_by_a_collar_around_a_lattice_core(tmp_path) -> None:
     """Eight 135° corners: no set of straight cuts works, a collar of spokes around a core of
     lattice kites does; the written mesh passes the independent check."""
