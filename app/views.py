@@ -181,6 +181,9 @@ class LayerState:
     #: the layer has a split and disk parts (remade for each automorphism)
     fine_disk: bool = False
     visible: bool = True
+    #: labels of parts kept hidden while the layer is shown (the polygon's fill while a mesh is
+    #: on screen); every redraw of the layer's visibility honours it
+    hidden: frozenset[str] = frozenset()
     color: str | None = None
     opacity: float | None = None
 
@@ -460,14 +463,23 @@ class View2D(QWidget):
         cells are below pixel size (see :meth:`subpixel`)."""
         light = self.interacting
         fine = not light and self.subpixel(st)
-        for a, heavy in zip(st.actors, st.heavy, strict=True):
-            a.SetVisibility(st.visible and not ((light or fine) and heavy))
+        labels = [p.label for p in self._drawn_parts(st)] if st.hidden else None
+        for k, (a, heavy) in enumerate(zip(st.actors, st.heavy, strict=True)):
+            shown = st.visible and (labels is None or labels[k] not in st.hidden)
+            a.SetVisibility(shown and not ((light or fine) and heavy))
         for a in st.light_actors:
             a.SetVisibility(st.visible and light)
         for a in st.fine_actors:
             a.SetVisibility(st.visible and fine)
         for bar in self._bars(st):
             bar.SetVisibility(st.visible)
+
+    def show_layer_parts(self, name: str) -> None:
+        """Apply layer ``name``'s visibility, its hidden parts (:attr:`LayerState.hidden`)
+        included, to its actors now (drawn at the next render)."""
+        st = self.layers.get(name)
+        if st is not None and st.geometry is not None and len(st.actors) == len(st.heavy):
+            self._show(st)
 
     # ------------------------------------------------------------------ settled detail
     def device_pixel_size(self) -> float:

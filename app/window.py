@@ -694,9 +694,8 @@ class MainWindow(QMainWindow):
             return
         mesh_on = fm is not None and fm.visible and fm.geometry is not None
         mesh_on = mesh_on or "partial" in self.plane.overlays
-        for part, actor in zip(View2D._drawn_parts(st), st.actors, strict=True):
-            if part.label == "fill":
-                actor.SetVisibility(st.visible and not mesh_on)
+        st.hidden = frozenset({"fill"}) if mesh_on else frozenset()
+        self.plane.show_layer_parts("polygon")
 
     def _view(self, view: str) -> View2D:
         return self.plane if view == "plane" else self.disk
