@@ -960,23 +960,31 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     return _cut_layout(z)
 
 
+@dataclass(frozen=True)
+class _KiteCut:
+    """The tip kites a polygon ``z`` was cut by (:func:`_kite_layout`), as the cut search sees
+    them: ``cells`` (tip point, then the indices in ``z`` of its kite's other three corners,
+    counter-clockwise), the ``rigid`` edges ``j -> j+1`` of ``z`` (kite sides, never split, no
+    cut ends inside them) and the ``exact`` corners (a kite's inner point at 240°, cut along
+    its bisector only, both parts exactly 120°)."""
+
+    cells: tuple[tuple[complex, int, int, int], ...] = ()
+    rigid: frozenset[int] = frozenset()
+    exact: frozenset[int] = frozenset()
+
+
 def _cut_layout(
-    z: NDArray[np.complex128],
-    rigid: frozenset[int] = frozenset(),
-    kites: tuple[tuple[complex, int, int, int], ...] = (),
-    exact: frozenset[int] = frozenset(),
-    seconds: float = SEARCH_SECONDS,
+    z: NDArray[np.complex128], kites: _KiteCut = _KiteCut(), seconds: float = SEARCH_SECONDS
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
-    ``kites`` (tip point, then the indices in ``z`` of its kite's other three corners, counter-
-    clockwise) the tip points are appended to the layout's points and the kites to its cells;
-    no cut ends inside a ``rigid`` edge of ``z`` (a kite side) and no split crosses a kite;
-    an ``exact`` corner (a kite's inner point at 240°) is cut along its bisector only; the
-    rounds of the search stop after ``seconds``."""
+    ``kites`` the tip points are appended to the layout's points and the kites to its cells,
+    no cut ends inside a kite side and no split crosses a kite (:class:`_KiteCut`); the rounds
+    of the search stop after ``seconds``."""
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
+    exact = kites.exact
     slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]), i in exact)))]
     if len(slots) > MAX_SLOTS:
         raise BlockLayoutError(
@@ -985,7 +993,7 @@ def _cut_layout(
             "round parts of the outline would help"
         )
     bare: list[_Ray] = []
-    rays = _candidates(z, theta, diam, bare, rigid, exact) if slots else []
+    rays = _candidates(z, theta, diam, bare, kites.rigid, exact) if slots else []
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
@@ -1018,9 +1026,7 @@ def _cut_layout(
             tee_rays = _t_variants(z, rays, diam, bare=bare)
         pool = rays + (tee_rays if tees else [])
         checkpoint()
-        lay = _search(
-            z, pool, slots, tips, tip_mask, has_slot, diam, problems, rigid, kites, exact, seconds
-        )
+        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems, kites, seconds)
         if lay is not None:
             return lay
     raise BlockLayoutError(
@@ -1116,7 +1122,9 @@ def _kite_layout(
                 continue
             try:
                 lay = _cut_layout(
-                    zr, frozenset(rigid), tuple(kites), frozenset(exact), min(left, SEARCH_SECONDS)
+                    zr,
+                    _KiteCut(tuple(kites), frozenset(rigid), frozenset(exact)),
+                    min(left, SEARCH_SECONDS),
                 )
             except BlockLayoutError as exc:
                 if "would be needed" in exc.args[0]:
@@ -1171,13 +1179,11 @@ def _search(
     has_slot: NDArray[np.bool_],
     diam: float,
     problems: list[str],
-    rigid: frozenset[int] = frozenset(),
-    kites: tuple[tuple[complex, int, int, int], ...] = (),
-    exact: frozenset[int] = frozenset(),
+    kites: _KiteCut = _KiteCut(),
     seconds: float = SEARCH_SECONDS,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
-    ``rigid``, ``kites`` and ``exact`` as in :func:`_cut_layout`)."""
+    ``kites`` and ``seconds`` as in :func:`_cut_layout`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     checkpoint()
@@ -1201,7 +1207,7 @@ def _search(
         pm[tips] = True
         own = np.zeros(len(P), dtype=bool)
         own[:n] = ~has_slot & ~tip_mask
-        own[list(exact)] = True  # a kite's inner point: its two parts are exactly 120°
+        own[list(kites.exact)] = True  # a kite's inner point: its two parts are exactly 120°
         faces = []
         wrong = []
         for fi, f in enumerate(faces_raw):
@@ -1213,7 +1219,7 @@ def _search(
             ok = np.where(pm[f], a > 0, (a >= ANGLE_MIN + m) & (a <= ANGLE_MAX - m))
             if not np.all(ok) or len(f) > 6 or len(f) < 3:
                 wrong.append(fi)
-            elif rigid and len(f) != 4 and _on_rigid(f, rigid, n):
+            elif kites.rigid and len(f) != 4 and _on_rigid(f, kites.rigid, n):
                 wrong.append(fi)  # its split would put a point on a kite side
         if not wrong:
             if all(len(f) == 4 for f in faces):
@@ -1221,7 +1227,9 @@ def _search(
                 X, split = P, False
             else:
                 # a quad face on a kite side stays whole: a split would put a point there
-                whole = [k for k, f in enumerate(faces) if len(f) == 4 and _on_rigid(f, rigid, n)]
+                whole = [
+                    k for k, f in enumerate(faces) if len(f) == 4 and _on_rigid(f, kites.rigid, n)
+                ]
                 rest = [k for k in range(len(faces)) if k not in whole]
                 X, cells, wrong = _split_cells(P, [faces[k] for k in rest], pm, own)
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
@@ -1232,11 +1240,11 @@ def _search(
                 if whole:
                     cells = np.concatenate([cells, np.array([faces[k] for k in whole])])
                 split = True
-            if not wrong and kites:
+            if not wrong and kites.cells:
                 # the tip points after the layout's points, the kites among its cells
                 first = len(X)
-                X = np.concatenate([X, np.array([k[0] for k in kites], dtype=np.complex128)])
-                kc = [(first + q, a, c, b) for q, (_, a, c, b) in enumerate(kites)]
+                X = np.concatenate([X, np.array([k[0] for k in kites.cells], dtype=np.complex128)])
+                kc = [(first + q, a, c, b) for q, (_, a, c, b) in enumerate(kites.cells)]
                 cells = np.concatenate([cells, np.array(kc, dtype=np.int64)])
                 pm = np.concatenate([pm, np.zeros(len(X) - len(pm), dtype=bool)])
                 pm[first:] = True
