@@ -785,20 +785,17 @@ def _mesh_layout(
     if structs:
         n_pts = _sector_points(max(len(g) - 1 for _, g, _ in structs))
         base = [_sector_mesh(o, V[g], n_pts, 0, g) for o, g, _ in structs]
-        # every fixed rung carries the same number of points: pad with connection rows
-        counts = []
         for (_o, _g, kind), m in zip(structs, base):
-            n1, n2 = m[5].size, m[6].size
-            if kind == "bend" and n1 != n2:
+            if kind == "bend" and m[5].size != m[6].size:
                 raise ThinPartError("a bend of the corridor has sides of unequal refinement")
-            counts.append(n1 + n2 - 1 if kind == "cap" else n1)
-        target = max([*counts, *(p.size for p in extra_fixed.values())])
-        caps_n = [c for c, (_, _, k) in zip(counts, structs) if k == "cap"]
-        if caps_n and (target - caps_n[0]) % 2:
-            target += 1
-        for (o, g, kind), c in zip(structs, counts):
-            rings = (target - c) // 2 if kind == "cap" else target - c
-            m = _sector_mesh(o, V[g], n_pts, rings, g)
+        apexes = [None] * len(lay.round_caps) + [a for a, _g in lay.sectors]
+        sides = [
+            _sector_sides(V, o, g, kind, m, rung_index, a)
+            for (o, g, kind), m, a in zip(structs, base, apexes)
+        ]
+        plan = _plan_sector_rows(lay, sides, {k: p.size for k, p in extra_fixed.items()})
+        for (o, g, kind), rows in zip(structs, plan):
+            m = _sector_mesh(o, V[g], n_pts, 0, g, row_fracs=rows)
             a_ = m[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
                 raise ThinPartError(
@@ -859,6 +856,226 @@ def _mesh_layout(
         cell = np.concatenate([cell, np.full(len(sq), -2 - k_s)])
     _check_ladder_angles(pts, quads, z)
     return CorridorMesh(pts, quads, cell, lay, rung_ids[-1] if lay.open_end else None)
+
+
+@dataclass
+class _SectorSide:
+    """One straight side of a corridor sector (a round end's half rung, or a bend's rung from
+    its apex) in the coordinates of the rung it lies on: the rung ``k`` (parameter 0 at its
+    L end, 1 at its R end), the parameters of the sector's core points on it (``core``, the
+    sector's centre included), and the map from a parameter beyond the core to the fraction
+    of the side's connection segment (core's outer point to the crosscut) where a row must
+    cross to put a point there: ``frac(p) = (|p − p_centre|·scale − inner) / (outer − inner)``.
+    """
+
+    k: int
+    core: np.ndarray
+    p_centre: float
+    scale: float
+    inner: float
+    outer: float
+    p_end: float
+
+    def frac(self, p: np.ndarray) -> np.ndarray:
+        d = np.abs(np.asarray(p) - self.p_centre) * self.scale
+        return (d - self.inner) / (self.outer - self.inner)
+
+
+def _sector_sides(V, o, g, kind, m, rung_index, apex_id) -> list[_SectorSide]:
+    """The :class:`_SectorSide` of both sides of a sector (round end: both halves of its rung;
+    bend: its two rungs from the apex) built with no connection rows (``m``)."""
+    allp, side1, side2 = m[2], m[5], m[6]
+    out = []
+    if kind == "cap":
+        k, fwd = rung_index(g[0], g[-1])
+        u, v = (g[0], g[-1]) if fwd else (g[-1], g[0])
+        L = abs(V[v] - V[u])
+        for side, p_end in ((side1, 0.0 if fwd else 1.0), (side2, 1.0 if fwd else 0.0)):
+            d = np.abs(allp[side] - o)
+            core = 0.5 + (p_end - 0.5) * 2.0 * d[:-1] / L
+            out.append(_SectorSide(k, core, 0.5, L, float(d[-2]), float(d[-1]), p_end))
+        return out
+    for side, end in ((side1, g[0]), (side2, g[-1])):
+        k, fwd = rung_index(apex_id, end)
+        L = abs(V[end] - o)
+        d = np.abs(allp[side] - o)
+        p_c = 0.0 if fwd else 1.0
+        core = p_c + (1.0 - 2.0 * p_c) * d[:-1] / L
+        out.append(_SectorSide(k, core, p_c, L, float(d[-2]), float(d[-1]), 1.0 - p_c))
+    return out
+
+
+def _runs(lay: CorridorLayout) -> list[np.ndarray]:
+    """The runs of a ladder layout: maximal stretches of consecutive rungs joined by ladder
+    cells (every rung is in exactly one run)."""
+    nr = len(lay.rungs)
+    link = np.zeros(max(nr - 1, 0), dtype=bool)
+    for c, (k0, _k1) in enumerate(lay.cell_rungs):
+        if lay.kind[c] == "ladder":
+            link[k0] = True
+    cut = np.flatnonzero(~link) + 1
+    return [r for r in np.split(np.arange(nr), cut) if r.size]
+
+
+def _fill(fixed: np.ndarray, count: int, blocked: list[tuple[float, float]]) -> np.ndarray:
+    """``fixed`` (sorted parameters) with points added, each time in the middle of the widest
+    gap that no ``blocked`` interval covers, until there are ``count`` points. Gaps are
+    split evenly: a gap of width w holding j new points is cut into j + 1 equal parts."""
+    fixed = np.unique(fixed)
+    extra = count - fixed.size
+    if extra < 0:
+        raise ValueError("more fixed points than the count")
+    lo, hi = fixed[:-1], fixed[1:]
+    mid = 0.5 * (lo + hi)
+    free = np.ones(lo.size, dtype=bool)
+    for a, b in blocked:
+        free &= ~((mid > a) & (mid < b))
+    if extra and not free.any():
+        raise ThinPartError("a sector of the corridor has no room for its rows")
+    width = np.where(free, hi - lo, 0.0)
+    j = np.zeros(lo.size, dtype=np.int64)
+    for _ in range(extra):
+        i = int(np.argmax(width / (j + 1)))
+        j[i] += 1
+    new = [lo[i] + (hi[i] - lo[i]) * np.arange(1, j[i] + 1) / (j[i] + 1) for i in np.flatnonzero(j)]
+    return np.sort(np.concatenate([fixed, *new]))
+
+
+#: Two sector cores on the two ends of one run whose parameter ranges are at least this far
+#: apart (bends on opposite walls, a round end and a bend) are merged: both ends carry the
+#: union of the two cores, so the run needs no morph.
+_MERGE_GAP = 0.02
+
+
+def _plan_sector_rows(
+    lay: CorridorLayout, sides: list[list[_SectorSide]], extra_sizes: dict[int, int]
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Where the connection rows of every corridor sector cross its two sides.
+
+    Every fixed rung (a sector's side) must carry the same number N of points. A run whose two
+    end rungs are sector sides with cores on different parts of the rung (bends on opposite
+    walls, a round end facing a bend) gets one list on both ends: the union of the two cores,
+    filled evenly: each sector puts the other's core points on its side by its rows, and the
+    run's cells are plain bilinear grids. Otherwise every side gets its own core, filled
+    evenly beyond it (the run morphs between its two ends, checked afterwards). Returns the
+    rows' fractions (f1, f2) per sector, as :func:`_sector_mesh` takes them."""
+    is_cap = [abs(ss[0].p_centre - 0.5) < 1e-12 for ss in sides]
+    at: dict[int, list[tuple[int, int]]] = {}  # rung -> (sector, side); a round end once
+    for i, ss in enumerate(sides):
+        for j, sd in enumerate(ss[:1] if is_cap[i] else ss):
+            at.setdefault(sd.k, []).append((i, j))
+
+    def rng(sd: _SectorSide) -> tuple[float, float]:
+        return float(sd.core.min()), float(sd.core.max())
+
+    # per run: the sector sides at its ends and whether their cores merge
+    groups = []
+    for run in _runs(lay):
+        ends = [e for r in {int(run[0]), int(run[-1])} for e in at.get(r, [])]
+        if not ends:
+            continue
+        merged = False
+        if len(ends) == 2:
+            (a0, a1), (b0, b1) = (rng(sides[i][j]) for i, j in ends)
+            merged = a1 + _MERGE_GAP < b0 or b1 + _MERGE_GAP < a0
+        groups.append((ends, merged))
+
+    def clusters(ends, merged) -> list[list[np.ndarray]]:
+        """The clusters of fixed parameters of each list of a group (one list if merged): the
+        cores at its ends and, for a bend, its core mirrored to the far wall unless another
+        core is there, so that every list of a bend looks alike (its rows then turn little
+        between its two sides)."""
+        cores = [
+            np.concatenate([sd.core for sd in sides[i]]) if is_cap[i] else sides[i][j].core
+            for i, j in ends
+        ]
+        lists = [cores] if merged else [[c] for c in cores]
+        for lst in lists:
+            for i, j in ends:
+                if is_cap[i] or (not merged and sides[i][j].core is not lst[0]):
+                    continue
+                mirror = 1.0 - sides[i][j].core
+                lo, hi = mirror.min() - _MERGE_GAP, mirror.max() + _MERGE_GAP
+                if not any(np.any((c > lo) & (c < hi)) for c in lst):
+                    lst.append(mirror)
+        return lists
+
+    def needed(ends, merged) -> list[np.ndarray]:
+        """The fixed parameters of each list of a group (one list if merged)."""
+        return [np.unique(np.r_[0.0, 1.0, *cl]) for cl in clusters(ends, merged)]
+
+    def blocked_of(ends, merged) -> list[list[tuple[float, float]]]:
+        return [[(float(c.min()), float(c.max())) for c in cl] for cl in clusters(ends, merged)]
+
+    def halves(i: int, pts: np.ndarray) -> list[int]:
+        """Points of ``pts`` beyond the round end i's core, on each of its halves."""
+        return [
+            int(
+                np.sum(
+                    np.abs(pts - sd.p_end) < np.abs(sd.p_end - 0.5) - sd.inner / sd.scale + 1e-12
+                )
+            )
+            for sd in sides[i]
+        ]
+
+    n_min = max(extra_sizes.values(), default=0)
+    cap_core = None
+    for ends, merged in groups:
+        for lst in needed(ends, merged):
+            n_min = max(n_min, lst.size)
+        for i, _j in ends:
+            if is_cap[i]:
+                core_n = np.unique(np.concatenate([sd.core for sd in sides[i]])).size
+                cap_core = core_n
+                lst = needed(ends, merged)[0]
+                n_min = max(n_min, core_n + 2 * max(halves(i, lst)))
+    N = n_min
+    if cap_core is not None and (N - cap_core) % 2:
+        N += 1
+
+    def cap_list(i: int, base: np.ndarray, blocked: list[tuple[float, float]]) -> np.ndarray:
+        """The round end i's list: its core, and each half beyond it filled to one count."""
+        per = (N - cap_core) // 2
+        parts = [np.unique(np.concatenate([sd.core for sd in sides[i]]))]
+        for sd in sides[i]:
+            edge = sd.p_centre + np.sign(sd.p_end - 0.5) * sd.inner / sd.scale
+            lo_, hi_ = sorted((edge, sd.p_end))
+            mine = base[(base > lo_ + 1e-12) & (base < hi_ + 1e-12)]
+            mine = _fill(np.unique(np.r_[edge, mine, sd.p_end]), per + 1, blocked)
+            parts.append(mine[np.abs(mine - edge) > 1e-12])
+        return np.sort(np.concatenate(parts))
+
+    lists: dict[tuple[int, int], np.ndarray] = {}
+    for ends, merged in groups:
+        if merged:
+            base = needed(ends, merged)[0]
+            blocked = blocked_of(ends, merged)[0]
+            caps = [i for i, _j in ends if is_cap[i]]
+            lst = cap_list(caps[0], base, blocked) if caps else _fill(base, N, blocked)
+            for e in ends:
+                lists[e] = lst
+            continue
+        for (i, j), base, blocked in zip(ends, needed(ends, merged), blocked_of(ends, merged)):
+            if is_cap[i]:
+                lists[(i, j)] = cap_list(i, base, [])
+            else:
+                lists[(i, j)] = _fill(base, N, blocked)
+    plan = []
+    for i, ss in enumerate(sides):
+        rows = []
+        for j, sd in enumerate(ss):
+            lst = lists.get((i, 0 if is_cap[i] else j))
+            if lst is None:  # a side whose rung is in no run with it at an end (not expected)
+                lst = _fill(np.unique(np.r_[0.0, 1.0, sd.core]), N, [rng(sd)])
+            if is_cap[i]:  # this half of the round end's rung
+                lst = lst[(lst - 0.5) * (sd.p_end - 0.5) > 0]
+            f = np.sort(sd.frac(lst))
+            f = f[(f > 1e-12) & (f < 1.0 - 1e-12)]
+            rows.append(f)
+        if rows[0].size != rows[1].size:
+            raise ThinPartError("a sector of the corridor gets unequal rows on its two sides")
+        plan.append((rows[0], rows[1]))
+    return plan
 
 
 def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) -> list[np.ndarray]:
@@ -1079,14 +1296,23 @@ def _sector_points(n_chords: int) -> int:
 
 
 def _sector_mesh(
-    apex: complex, g: np.ndarray, n_pts: int, rings: int = 0, gamma: list[int] | None = None
+    apex: complex,
+    g: np.ndarray,
+    n_pts: int,
+    rings: int = 0,
+    gamma: list[int] | None = None,
+    row_fracs: tuple[np.ndarray, np.ndarray] | None = None,
 ):
     """A vertex sector about ``apex`` bounded by the crosscut ``g`` (from the end of side 1
     round to the end of side 2, counter-clockwise): ``g``'s chords split (widest polar angle
     first; new points lie on the polygon's edges or on rungs) to ``n_pts`` points, the core
     of :func:`_sector_core` scaled to the shorter side, then ``rings`` + 1 rows of connection
     quads to the crosscut (rows at equal fractions of every segment s_k g_k: each row is a
-    bilinear subdivision of the previous quads). Returns (crosscut points, their coarse ids,
+    bilinear subdivision of the previous quads). With ``row_fracs = (f1, f2)`` (increasing
+    fractions in (0, 1), one per row) the rows sit at fraction f1 on side 1 and f2 on side 2,
+    and in between at the mix of the two by spoke index: every row still crosses every spoke
+    once and in order, and the connection angles (returned, checked by the callers) say
+    whether the rows turned too fast. Returns (crosscut points, their coarse ids,
     all points, quads, connection angles, side-1 point indices, side-2 point indices), the
     sides from the apex outwards."""
     u1 = (g[0] - apex) / abs(g[0] - apex)
@@ -1110,8 +1336,15 @@ def _sector_mesh(
     nc = core.size
     rows = [outer]  # rows of points from the core's outer arc to the crosscut
     extra = []
+    if row_fracs is not None:
+        f1, f2 = (np.asarray(f, dtype=np.float64) for f in row_fracs)
+        rings = f1.size
+        w = np.arange(n_pts) / (n_pts - 1)
+        frac = (1.0 - w)[None, :] * f1[:, None] + w[None, :] * f2[:, None]
+    else:
+        frac = np.repeat((np.arange(1, rings + 1) / (rings + 1))[:, None], n_pts, axis=1)
     for r in range(1, rings + 1):
-        extra.append(core[outer] + r / (rings + 1) * (gp - core[outer]))
+        extra.append(core[outer] + frac[r - 1] * (gp - core[outer]))
         rows.append(nc + (r - 1) * n_pts + np.arange(n_pts))
     gidx = nc + rings * n_pts + np.arange(n_pts)
     rows.append(gidx)
