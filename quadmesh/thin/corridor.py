@@ -783,8 +783,9 @@ def _mesh_layout(
     fixed: dict[int, np.ndarray] = {}
     built = []
     if structs:
-        n_pts = _sector_points(max(len(g) - 1 for _, g, _ in structs))
-        base = [_sector_mesh(o, V[g], n_pts, 0, g) for o, g, _ in structs]
+        # each sector's crosscut as coarse as its own boundary allows (2^k + 1 points)
+        n_pts = [_sector_points(len(g) - 1) for _, g, _ in structs]
+        base = [_sector_mesh(o, V[g], n, 0, g) for (o, g, _), n in zip(structs, n_pts)]
         for (_o, _g, kind), m in zip(structs, base):
             if kind == "bend" and m[5].size != m[6].size:
                 raise ThinPartError("a bend of the corridor has sides of unequal refinement")
@@ -794,8 +795,8 @@ def _mesh_layout(
             for (o, g, kind), m, a in zip(structs, base, apexes)
         ]
         plan = _plan_sector_rows(lay, sides, {k: p.size for k, p in extra_fixed.items()})
-        for (o, g, kind), rows in zip(structs, plan):
-            m = _sector_mesh(o, V[g], n_pts, 0, g, row_fracs=rows)
+        for (o, g, kind), rows, n in zip(structs, plan, n_pts):
+            m = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows)
             a_ = m[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
                 raise ThinPartError(
@@ -1018,25 +1019,28 @@ def _plan_sector_rows(
             for sd in sides[i]
         ]
 
+    def cap_core(i: int) -> np.ndarray:
+        """The round end i's core points on its rung (an odd number: its centre is shared)."""
+        return np.unique(np.concatenate([sd.core for sd in sides[i]]))
+
     n_min = max(extra_sizes.values(), default=0)
-    cap_core = None
+    has_cap = False
     for ends, merged in groups:
         for lst in needed(ends, merged):
             n_min = max(n_min, lst.size)
         for i, _j in ends:
             if is_cap[i]:
-                core_n = np.unique(np.concatenate([sd.core for sd in sides[i]])).size
-                cap_core = core_n
+                has_cap = True
                 lst = needed(ends, merged)[0]
-                n_min = max(n_min, core_n + 2 * max(halves(i, lst)))
+                n_min = max(n_min, cap_core(i).size + 2 * max(halves(i, lst)))
     N = n_min
-    if cap_core is not None and (N - cap_core) % 2:
+    if has_cap and N % 2 == 0:  # a round end's rung carries core (odd) + twice its rows
         N += 1
 
     def cap_list(i: int, base: np.ndarray, blocked: list[tuple[float, float]]) -> np.ndarray:
         """The round end i's list: its core, and each half beyond it filled to one count."""
-        per = (N - cap_core) // 2
-        parts = [np.unique(np.concatenate([sd.core for sd in sides[i]]))]
+        per = (N - cap_core(i).size) // 2
+        parts = [cap_core(i)]
         for sd in sides[i]:
             edge = sd.p_centre + np.sign(sd.p_end - 0.5) * sd.inner / sd.scale
             lo_, hi_ = sorted((edge, sd.p_end))
