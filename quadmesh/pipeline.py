@@ -433,12 +433,6 @@ def _thick_and_thin(
     return asm, pieces, thin
 
 
-#: Vertices (as fractions of the cut from its R end to its L end) added to the body of an arm
-#: with a round end, tried in turn until the body's mesh puts an odd number of points on the
-#: cut (see :func:`_mesh_arm_and_body`).
-ARM_CUT_SPLITS: tuple[tuple[float, ...], ...] = ((), (0.5,), (0.3, 0.7), (0.25, 0.5, 0.75))
-
-
 def _mesh_arm_and_body(
     dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
 ):
@@ -463,26 +457,14 @@ def _mesh_arm_and_body(
         t = (w - za) / (zb - za)
         return np.flatnonzero((np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)), t
 
-    inner = None
-    # A round end's sector puts an odd number of points on every rung of the arm that a strip
-    # of cells reaches unchanged (its two sides carry the same rows). The body's mesh decides
-    # the count on the cut; when it is even, the body is meshed again with the cut split by
-    # one, two or three vertices (each changes that count unpredictably).
-    for splits in ARM_CUT_SPLITS:
-        try:
-            w = np.r_[body, zb + np.asarray(splits, dtype=np.float64) * (za - zb)]
-            inner = mesh_polygon(
-                np.column_stack([w.real, w.imag]), options, cancel=cancel, executor=executor
-            )
-        except Cancelled:
-            raise
-        except QuadmeshError:
-            return None
-        if inner.mesh_origin or inner.origin:
-            return None
-        if not lay.round_caps or on_cut(inner.mesh.z)[0].size % 2 == 1:
-            break
-    else:
+    try:
+        body_xy = np.column_stack([body.real, body.imag])
+        inner = mesh_polygon(body_xy, options, cancel=cancel, executor=executor)
+    except Cancelled:
+        raise
+    except QuadmeshError:
+        return None
+    if inner.mesh_origin or inner.origin:
         return None
     bz = inner.mesh.z
     try:

@@ -235,8 +235,9 @@ def test_bends_on_opposite_walls_share_their_cores(run):
 def test_random_walks_mesh_as_corridors():
     """Buffered random walks (unit width, 10–60 widths long, round caps and joins) whose bends
     alternate between the walls mesh as one corridor; one whose ladder gets stuck (walk_2, at a
-    241° kink) meshes as an arm glued to a body, the body's cut split until its mesh puts an odd
-    number of points on the cut (the arm's round end needs that). Each mesh checked here."""
+    241° kink) meshes as an arm glued to a body: the body's mesh puts an even number of points
+    on the cut, and the arm's round end matches it with a sector of 2^k + 1 chords (2^k would
+    put an odd number on every rung). Each mesh checked here."""
     from quadmesh.errors import QuadmeshError
     from quadmesh.families import family_members
 
@@ -256,3 +257,23 @@ def test_random_walks_mesh_as_corridors():
     whole = [k for k, v in kinds.items() if v == ["corridor"]]
     assert len(whole) >= 4  # walk_1, 3, 4, 5
     assert "walk_2" in kinds and "corridor" in kinds["walk_2"]  # the arm and its body
+
+
+@pytest.mark.parametrize("n_pts", [17, 18, 33, 34])
+def test_a_round_end_with_an_odd_number_of_chords_puts_an_even_count_on_its_rung(n_pts):
+    """A half-disk sector's core (Mesh 1 and Mesh 2 levels) with 2^k chords has equal sides: its
+    rung (both sides, the centre shared) carries an odd number of points, and so does every rung
+    a strip of cells reaches. With 2^k + 1 chords one level refines one chord more: the sides
+    differ by one point and the count is even, which an arm needs when the body behind it puts
+    an even number of points on the cut. Every angle of the core stays in [60°, 120°]."""
+    from quadmesh.thin.corridor import _sector_core
+
+    v, q, outer, s1, s2 = _sector_core(180.0, n_pts)
+    assert outer.size == n_pts
+    rung = s1.size + s2.size - 1
+    assert rung % 2 == (1 if (n_pts - 1) % 2 == 0 else 0)
+    c = v[q] - v[q][:, :1]
+    e = np.roll(c, -1, axis=1) - c
+    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
+    ang = np.where(ang < 0, ang + 360, ang)
+    assert ang.min() >= 60 - 1e-7 and ang.max() <= 120 + 1e-7

@@ -783,8 +783,13 @@ def _mesh_layout(
     fixed: dict[int, np.ndarray] = {}
     built = []
     if structs:
-        # each sector's crosscut as coarse as its own boundary allows (2^k + 1 points)
-        n_pts = [_sector_points(len(g) - 1) for _, g, _ in structs]
+        # each sector's crosscut as coarse as its own boundary allows (2^k + 1 points); a round
+        # end puts an odd number of points on its rung with 2^k chords and an even number with
+        # 2^k + 1 (its core's two sides then differ by one point): the parity every fixed rung
+        # must share when another part (a body behind an arm) fixes a rung
+        sizes = {p.size for p in extra_fixed.values()}
+        odd = not sizes or max(sizes) % 2 == 1
+        n_pts = [_sector_points(len(g) - 1) + (kind == "cap" and not odd) for _, g, kind in structs]
         base = [_sector_mesh(o, V[g], n, 0, g) for (o, g, _), n in zip(structs, n_pts)]
         for (_o, _g, kind), m in zip(structs, base):
             if kind == "bend" and m[5].size != m[6].size:
@@ -1034,7 +1039,10 @@ def _plan_sector_rows(
                 lst = needed(ends, merged)[0]
                 n_min = max(n_min, cap_core(i).size + 2 * max(halves(i, lst)))
     N = n_min
-    if has_cap and N % 2 == 0:  # a round end's rung carries core (odd) + twice its rows
+    parity = {cap_core(i).size % 2 for i in range(len(sides)) if is_cap[i]}
+    if len(parity) > 1:
+        raise ThinPartError("the round ends of the corridor disagree on the points across it")
+    if has_cap and N % 2 != parity.pop():  # a round end's rung: its core and twice its rows
         N += 1
 
     def cap_list(i: int, base: np.ndarray, blocked: list[tuple[float, float]]) -> np.ndarray:
