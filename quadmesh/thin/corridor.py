@@ -980,12 +980,15 @@ def _plan_sector_rows(
 ) -> list[tuple[np.ndarray, np.ndarray]]:
     """Where the connection rows of every corridor sector cross its two sides.
 
-    Every fixed rung (a sector's side) must carry the same number N of points. A run whose two
-    end rungs are sector sides with cores on different parts of the rung (bends on opposite
-    walls, a round end facing a bend) gets one list on both ends: the union of the two cores,
-    filled evenly: each sector puts the other's core points on its side by its rows, and the
-    run's cells are plain bilinear grids. Otherwise every side gets its own core, filled
-    evenly beyond it (the run morphs between its two ends, checked afterwards). Returns the
+    Every fixed rung (a sector's side, a rung fixed from outside: ``extra_sizes``) must carry
+    the same number N of points, of the parity of the round ends' rungs (their core and twice
+    their rows). A run whose two end rungs are sector sides with cores on different parts of
+    the rung (bends on opposite walls, a round end facing a bend) gets one list on both ends:
+    the union of the two cores, filled evenly: each sector puts the other's core points on its
+    side by its rows, and the run's cells are plain bilinear grids. Otherwise every side gets
+    its own core, filled evenly beyond it (the run morphs between its two ends, checked
+    afterwards). A bend's list also holds its core mirrored to the far wall where no other core
+    is, so that its two sides look alike and its rows turn little between them. Returns the
     rows' fractions (f1, f2) per sector, as :func:`_sector_mesh` takes them."""
     is_cap = [abs(ss[0].p_centre - 0.5) < 1e-12 for ss in sides]
     at: dict[int, list[tuple[int, int]]] = {}  # rung -> (sector, side); a round end once
@@ -1037,17 +1040,14 @@ def _plan_sector_rows(
 
     def halves(i: int, pts: np.ndarray) -> list[int]:
         """Points of ``pts`` beyond the round end i's core, on each of its halves."""
-        return [
-            int(
-                np.sum(
-                    np.abs(pts - sd.p_end) < np.abs(sd.p_end - 0.5) - sd.inner / sd.scale + 1e-12
-                )
-            )
-            for sd in sides[i]
-        ]
+        out = []
+        for sd in sides[i]:
+            reach = abs(sd.p_end - 0.5) - sd.inner / sd.scale  # from the end to the core's edge
+            out.append(int(np.sum(np.abs(pts - sd.p_end) < reach + 1e-12)))
+        return out
 
     def cap_core(i: int) -> np.ndarray:
-        """The round end i's core points on its rung (an odd number: its centre is shared)."""
+        """The round end i's core points on its rung (both sides, the centre once)."""
         return np.unique(np.concatenate([sd.core for sd in sides[i]]))
 
     n_min = max(extra_sizes.values(), default=0)
@@ -1125,17 +1125,8 @@ def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) 
     nr = len(lay.rungs)
     rl = np.abs(V[lay.rungs[:, 1]] - V[lay.rungs[:, 0]])
     mid = 0.5 * (V[lay.rungs[:, 1]] + V[lay.rungs[:, 0]])
-    link = np.zeros(max(nr - 1, 0), dtype=bool)
-    for c, (k0, _k1) in enumerate(lay.cell_rungs):
-        if lay.kind[c] == "ladder":
-            link[k0] = True
     params: list[np.ndarray] = [np.zeros(0)] * nr
-    start = 0
-    for k in range(nr):
-        if k < nr - 1 and link[k]:
-            continue
-        run = np.arange(start, k + 1)
-        start = k + 1
+    for run in _runs(lay):
         ends = [r for r in (run[0], run[-1]) if r in fixed]
         if not ends:
             cnt = max(1, int(np.ceil(rl[run].max() / size)))
