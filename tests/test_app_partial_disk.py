@@ -130,7 +130,7 @@ def test_unsolved_map_shows_the_estimate_it_judged(main_window, qtbot):
 
     require_pipeline()
     win = main_window
-    poly = np.asarray(FAMILIES["walks"](0)[2].vertices)
+    poly = np.asarray(FAMILIES["walks"](0)[8].vertices)
     win.set_polygon(poly)
     with qtbot.waitSignal(win.runner.idle, timeout=120000):
         press(qtbot, win.mesh_button)

@@ -208,10 +208,10 @@ def _walk(k: int) -> np.ndarray:
 
 #: name -> (polygon, options, stage of the refusal, what the message must say).
 REFUSALS = {
-    # a random walk with a narrow waist: the corridor mesher finds no layout of straight cells
+    # a random walk with sharp kinks: the corridor mesher finds no layout of straight cells
     # and the conformal map crowds
     "curved_corridor": (
-        lambda: _walk(2),
+        lambda: _walk(8),
         MeshOptions(),
         "conformal",
         r"through vertices \d+ to \d+ \(around " + XY + r"\).*corridor.*would help",
@@ -303,8 +303,8 @@ def test_a_failure_carries_what_was_computed():
     from quadmesh.render import build_layer
 
     with pytest.raises(QuadmeshError) as info:
-        mesh_polygon(_walk(2))
+        mesh_polygon(_walk(8))
     partial = info.value.partial
     assert isinstance(partial, PartialResult) and len(partial.decomposition.thick) >= 1
-    assert np.allclose(partial.polygon.z, validate_polygon(_walk(2)).z)
+    assert np.allclose(partial.polygon.z, validate_polygon(_walk(8)).z)
     assert build_layer(partial, "thick_pieces").parts

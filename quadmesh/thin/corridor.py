@@ -747,14 +747,16 @@ def mesh_corridor(
 
     Sectors are tried with crosscuts of at least 8 chords first (their cores put fewer points
     across the corridor: 30–45 % fewer quads on buffered walks), then of 16 where a round end
-    or a bend needs them (:data:`SECTOR_CHORDS`).
+    or a bend needs them (:data:`SECTOR_CHORDS`); polygons of more than
+    :data:`SECTOR_RETRY_MAX` vertices, whose layout search is long, get 16 at once.
 
     Raises:
         ThinPartError: no ladder layout exists, or a sector or morphing run fails its check.
     """
     z = np.asarray(z, dtype=np.complex128)
+    tries = SECTOR_CHORDS if z.size <= SECTOR_RETRY_MAX else SECTOR_CHORDS[-1:]
     error: ThinPartError | None = None
-    for least in SECTOR_CHORDS:
+    for least in tries:
         try:
             lay_ = ladder_layout(z, sector_chords=least) if lay is None else lay
             return _mesh_layout(lay_, z, across, {}, size, least)
@@ -762,6 +764,11 @@ def mesh_corridor(
             error = exc
     assert error is not None
     raise error
+
+
+#: Polygons with more vertices than this go straight to sectors of 16 chords (a second layout
+#: search of a 1,000-vertex river takes minutes).
+SECTOR_RETRY_MAX = 400
 
 
 #: Least crosscut chord counts of corridor sectors, tried in turn by :func:`mesh_corridor`.
