@@ -266,8 +266,9 @@ def test_recent_files_menu(main_window, qtbot, tmp_path):
 
 
 def test_failed_run_marks_the_place_it_names(main_window, qtbot):
-    """A random walk whose meshing fails (walks seed 0, member 8: its ladder stops at a 277° kink): the message names points
-    "(x, y)"; red markers appear there in the plane view, and editing clears them."""
+    """A random walk whose meshing fails (walks seed 0, member 8: its ladder stops at a 277°
+    kink): the message names points "(x, y)"; red markers appear there in the plane view, and
+    editing clears them."""
     require_pipeline()
     from quadmesh.families import walks
 
