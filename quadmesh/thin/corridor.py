@@ -500,7 +500,7 @@ def ladder_layout(
                     if C.theta[ap] - th < 2 * lo_ang:
                         continue
                     try:
-                        a_ = _sector_mesh(zc, gz, _sector_points(gz.size - 1, sector_chords))[4]
+                        a_ = _connection_angles(zc, gz, _sector_points(gz.size - 1, sector_chords))
                     except ThinPartError:
                         continue
                     if a_.min() < lo_ang or a_.max() > 120.0 - margin:
@@ -710,7 +710,7 @@ def _round_cap_cost(pts: np.ndarray, sector_chords: int = 16) -> float | None:
         return None
     # the connection quads between the sector's core and the cap's points
     try:
-        a_ = _sector_mesh(o, pts, _sector_points(pts.size - 1, sector_chords))[4]
+        a_ = _connection_angles(o, pts, _sector_points(pts.size - 1, sector_chords))
     except ThinPartError:
         return None
     if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
@@ -1328,6 +1328,45 @@ def _sector_points(n_chords: int, least: int = 16) -> int:
     return 2 ** int(np.ceil(np.log2(max(n_chords, least)))) + 1
 
 
+def _crosscut_points(apex: complex, g: np.ndarray, n_pts: int):
+    """The crosscut of a sector about ``apex`` bounded by ``g``: ``g``'s chords split, widest
+    polar angle first, into ``n_pts`` − 1 chords. Returns the unit direction of side 1, the
+    sector's angle in degrees (rounded to 1e-9, the key of :func:`_sector_core`), the points,
+    and for each point but the last its chord j of ``g`` and its index i on that chord."""
+    u1 = (g[0] - apex) / abs(g[0] - apex)
+    ang = np.unwrap(np.angle((g - apex) / u1))
+    theta = round(float(np.degrees(ang[-1])), 9)
+    span = np.diff(ang)
+    k = np.ones(span.size, dtype=np.int64)
+    if k.sum() > n_pts - 1 or np.any(span <= 0):
+        raise ThinPartError("a sector of the corridor has more points than it takes")
+    while k.sum() < n_pts - 1:
+        k[np.argmax(span / k)] += 1
+    j = np.repeat(np.arange(g.size - 1), k)
+    i = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
+    gp = np.r_[g[j] + (g[j + 1] - g[j]) * i / k[j], g[-1]]
+    return u1, theta, gp, i, j
+
+
+def _connection_angles(apex: complex, g: np.ndarray, n_pts: int) -> np.ndarray:
+    """The angles of the connection quads of :func:`_sector_mesh` (no extra rows) without
+    building the core: for ``n_pts`` = 2^k + 1 the core's outer arc is the arc of radius
+    :data:`CAP_CORE` (of the shorter side) through evenly spaced polar angles (to rounding,
+    so the angles agree with the built sector's to ~1e-12°). What the layout search checks
+    for every candidate round end and bend, thousands of times on a long ragged corridor."""
+    if (n_pts - 1) & (n_pts - 2):  # not 2^k + 1: the core's arc is not even; build it
+        return _sector_mesh(apex, g, n_pts)[4]
+    u1, theta, gp, _i, _j = _crosscut_points(apex, g, n_pts)
+    rho = min(abs(g[0] - apex), abs(g[-1] - apex))
+    arc = np.exp(1j * np.radians(theta) * np.arange(n_pts) / (n_pts - 1))
+    lo = apex + rho * u1 * (CAP_CORE * arc)
+    c = np.stack([lo[:-1], gp[:-1], gp[1:], lo[1:]], axis=1)
+    c = c - c[:, :1]
+    e = np.roll(c, -1, axis=1) - c
+    a_ = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
+    return np.where(a_ < 0, a_ + 360.0, a_)
+
+
 def _sector_mesh(
     apex: complex,
     g: np.ndarray,
@@ -1348,22 +1387,11 @@ def _sector_mesh(
     whether the rows turned too fast. Returns (crosscut points, their coarse ids,
     all points, quads, connection angles, side-1 point indices, side-2 point indices), the
     sides from the apex outwards."""
-    u1 = (g[0] - apex) / abs(g[0] - apex)
-    ang = np.unwrap(np.angle((g - apex) / u1))
-    theta = float(np.degrees(ang[-1]))
-    span = np.diff(ang)
-    k = np.ones(span.size, dtype=np.int64)
-    if k.sum() > n_pts - 1 or np.any(span <= 0):
-        raise ThinPartError("a sector of the corridor has more points than it takes")
-    while k.sum() < n_pts - 1:
-        k[np.argmax(span / k)] += 1
-    j = np.repeat(np.arange(g.size - 1), k)
-    i = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k)
-    gp = np.r_[g[j] + (g[j + 1] - g[j]) * i / k[j], g[-1]]
+    u1, theta, gp, i, j = _crosscut_points(apex, g, n_pts)
     ids = None
     if gamma is not None:
         ids = [*np.where(i == 0, np.asarray(gamma)[j], -1).tolist(), int(gamma[-1])]
-    tv, tq, outer, s1, s2 = _sector_core(round(theta, 9), n_pts)
+    tv, tq, outer, s1, s2 = _sector_core(theta, n_pts)
     rho = min(abs(g[0] - apex), abs(g[-1] - apex))
     core = apex + rho * u1 * tv
     nc = core.size
