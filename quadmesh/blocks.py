@@ -23,10 +23,17 @@ The cuts:
   cannot be split about a centre with angles in range is excluded by a new constraint and the
   search runs again.
 
+Where some corner has no cut of its own that meets the boundary well, a cut may also end at a
+*junction*: an interior point where three or more cuts meet, all its angles in [60°, 120°]
+(three arms: exactly 120° each), its other arms running to corners (serving their cuts) or to
+the boundary.  A junction is one candidate of the integer program, covering the cut slots of
+all the corners its arms reach (:func:`_junctions`).
+
 A corner below 60° (a *tip*) is first cut off by a *tip kite* about one block size long (the
 tip, a point on each of its edges, a point on its bisector; :func:`_tip_kite`): the rest of the
 polygon gets a reflex corner of at least 240° there, cut like any other, and no cut may end on
-the kite, the one cell that is never split.  If no layout with kites closes, the tips' blocks
+the kite, which is never split, nor are the quads on the chords through it (a split would reach
+the kite).  If no layout with kites closes, the tips' blocks
 are kept whole instead.
 
 Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are complex128.
@@ -83,7 +90,7 @@ ARM_SAMPLES = 7
 HUB_POSITIONS = (0.2, 0.35, 0.5, 0.65, 0.8)
 #: free-arm directions tried at a hub (evenly spread over a turn)
 HUB_DIRECTIONS = 48
-#: a junction costs this per hub on top of its arms (a layout without one is simpler)
+#: a junction costs this on top of its arms (a layout without one is simpler)
 JUNCTION_COST = 0.5
 #: wall-clock seconds the search with junction candidates may take
 JUNCTION_SECONDS = 1.0
@@ -218,10 +225,9 @@ class _Ray:
     stop: int = -1  # base id of the ray this one ends on (a T-junction), else -1
     reach: float = 0.0  # distance from the start to the end
     p0: complex | None = None  # where the segment starts when not at z[start] (a junction arm)
-    arms: tuple[_Ray, ...] = ()  # a junction: its arms, each from a hub outwards
-    # a junction's interior points, each with whether it has three arms (its three angles
-    # are then exactly 120°); an arm may end at another hub of the same junction
-    hubs: tuple[tuple[complex, bool], ...] = ()
+    arms: tuple[_Ray, ...] = ()  # a junction: its arms, each from the hub outwards
+    hub: complex | None = None  # a junction's interior point
+    exact: bool = False  # the hub's angles are exactly 120° (three arms)
 
 
 def _p0(z: NDArray[np.complex128], r: _Ray) -> complex:
@@ -493,16 +499,11 @@ def _corner_arm(
 
 
 def _star(arms: list[_Ray], hub: complex, exact: bool = False) -> _Ray:
-    """A junction candidate: the arms from ``hub``, covering the slots of their corners
-    (:func:`_network` for several hubs)."""
-    return _network(arms, ((hub, exact),))
-
-
-def _network(arms: list[_Ray], hubs: tuple[tuple[complex, bool], ...]) -> _Ray:
-    """A junction candidate of one or more ``hubs`` joined by ``arms`` (each from a hub to a
-    corner, the boundary or another hub), covering the slots of the corners its arms reach."""
+    """A junction candidate: the ``arms`` from ``hub`` (to corners or to the boundary), one
+    candidate covering the cut slots of the corners they reach; ``exact``: the hub's angles
+    are exactly 120°."""
     slots = [s for a in arms for s in a.slots]
-    cost = JUNCTION_COST * len(hubs) + sum(a.cost for a in arms)
+    cost = JUNCTION_COST + sum(a.cost for a in arms)
     first = arms[0]
     return _Ray(
         first.start,
@@ -516,9 +517,10 @@ def _network(arms: list[_Ray], hubs: tuple[tuple[complex, bool], ...]) -> _Ray:
         -1,
         -1,
         first.reach,
-        p0=hubs[0][0],
+        p0=hub,
         arms=tuple(arms),
-        hubs=hubs,
+        hub=hub,
+        exact=exact,
     )
 
 
@@ -737,6 +739,10 @@ def _junctions(
       third arm along the bisector of the remaining 240° to the boundary; all three angles
       are exactly 120° (three angles at most 120° summing to 360° leave no other choice).
 
+    * A *hub along a cut*: a point of a cut of ``long`` at the fractions :data:`HUB_POSITIONS`
+      of its length, the cut running from its corner to the hub, with arms around the hub to
+      corners or to the boundary (:func:`_hubs_on_rays`).
+
     Junction points keep the point gap from the boundary; the cheapest :data:`MAX_JUNCTIONS`
     are returned."""
     n = len(z)
@@ -933,7 +939,7 @@ def _conflicts(z: NDArray[np.complex128], cands: list[_Ray], diam: float) -> lis
     stop = np.array([r.stop for r in rays])
     cos_lo = math.cos(math.radians(ANGLE_MIN + LAYOUT_MARGIN))  # |cos| above: a bad angle
     cols = np.arange(nr)
-    bad_set: set[tuple[int, int]] = set()
+    found: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
     for lo in range(0, nr, 256):
         checkpoint()
         a = np.arange(lo, min(lo + 256, nr))[:, None]
@@ -976,17 +982,23 @@ def _conflicts(z: NDArray[np.complex128], cands: list[_Ray], diam: float) -> lis
         touch = (np.abs(Qa - (Pb + ua * Db)) < gap) | (np.abs(Qb - (Pa + ub * Da)) < gap)
         geo = close_ends | np.where(cross, near_x | steep, touch)
         res = upper & ~tee & ~share & geo
-        for i, j in zip(*np.nonzero(res)):
-            bad_set.add(_ordered(int(owner[a[i, 0]]), int(owner[j])))
+        i, j = np.nonzero(res)
+        found.append((a[i, 0], j))
+        si, sj = [], []
         for i, j in zip(*np.nonzero(upper & ~tee & share)):
             ai, bj = int(a[i, 0]), int(j)
             if _pair_conflicts(z, rays[ai], rays[bj], gap):
-                bad_set.add(_ordered(int(owner[ai]), int(owner[bj])))
-    return sorted(bad_set)
-
-
-def _ordered(a: int, b: int) -> tuple[int, int]:
-    return (a, b) if a < b else (b, a)
+                si.append(ai)
+                sj.append(bj)
+        found.append((np.array(si, dtype=np.int64), np.array(sj, dtype=np.int64)))
+    oa = owner[np.concatenate([f[0] for f in found])]
+    ob = owner[np.concatenate([f[1] for f in found])]
+    if nr == len(cands):  # no junctions: the pairs as found
+        return list(zip(oa.tolist(), ob.tolist()))
+    # segments to candidates, each pair once
+    lo_, hi_ = np.minimum(oa, ob), np.maximum(oa, ob)
+    code = np.unique(lo_ * len(cands) + hi_)
+    return list(zip((code // len(cands)).tolist(), (code % len(cands)).tolist()))
 
 
 def _point_seg_dist(p: complex, a: complex, b: complex) -> float:
@@ -1090,15 +1102,15 @@ def _arrangement(
     n = len(z)
     pts: list[complex] = list(z)
     rays, owner = _segments(cands)
-    # a junction's hubs are points of their own, where its arms start (or end)
-    hub_of: dict[tuple[int, complex], int] = {}
+    # a junction's hub is a point of its own, where all its arms start
+    hub_of: dict[int, int] = {}
     exact_hubs: list[int] = []
     for k, c in enumerate(cands):
-        for h, exact in c.hubs:
-            hub_of[(k, h)] = len(pts)
-            pts.append(h)
-            if exact:
-                exact_hubs.append(len(pts) - 1)
+        if c.hub is not None:
+            hub_of[k] = len(pts)
+            pts.append(c.hub)
+            if c.exact:
+                exact_hubs.append(hub_of[k])
     # points on every polygon edge (parameter, index) and on every ray
     on_edge: dict[int, list[tuple[float, int]]] = {
         j: [(0.0, j), (1.0, (j + 1) % n)] for j in range(n)
@@ -1107,14 +1119,12 @@ def _arrangement(
     for r, k in zip(rays, owner.tolist()):
         if r.join >= 0:
             end = r.join
-        elif r.p0 is not None and (k, r.end) in hub_of:
-            end = hub_of[(k, r.end)]
         else:
             end = len(pts)
             pts.append(r.end)
             if r.edge >= 0:
                 on_edge[r.edge].append((r.u, end))
-        on_ray.append([(0.0, r.start if r.p0 is None else hub_of[(k, r.p0)]), (1.0, end)])
+        on_ray.append([(0.0, r.start if r.p0 is None else hub_of[k]), (1.0, end)])
     by_base = {r.base: k for k, r in enumerate(rays) if r.base >= 0}
     for a, r in enumerate(rays):
         if r.stop >= 0:  # a T: the end point lies on the ray it stops at

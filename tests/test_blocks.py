@@ -417,6 +417,61 @@ def test_vectorised_conflicts_match_the_pair_rule(name: str) -> None:
     assert got == want and len(want) > 0
 
 
+def test_vectorised_conflicts_of_junctions_match_the_pair_rule() -> None:
+    """With junction candidates (several arms each) the all-pairs numpy test agrees with the
+    one-pair rule applied to every pair of their segments: two candidates conflict when any
+    arm of one conflicts with any arm (or the cut) of the other."""
+    from quadmesh.blocks import (
+        POINT_GAP,
+        _angles_deg,
+        _candidates,
+        _conflicts,
+        _junctions,
+        _long,
+        _p0,
+        _pair_conflicts,
+        _scale,
+    )
+
+    z = _z(ARROW)
+    d = _scale(z)
+    theta = _angles_deg(z)
+    bare: list = []
+    rays = _candidates(z, theta, d, bare)
+    stars = _junctions(z, theta, d, _long(rays, bare))
+    assert len(stars) > 10 and {len(s.arms) for s in stars} >= {3, 4}
+    cands = rays[::4] + stars[:: max(1, len(stars) // 60)]
+    got = set(_conflicts(z, cands, d))
+
+    def segs(c):
+        return c.arms if c.arms else (c,)
+
+    want = {
+        (a, b)
+        for a in range(len(cands))
+        for b in range(a + 1, len(cands))
+        if any(
+            _pair_conflicts(z, sa, sb, POINT_GAP * d)
+            for sa in segs(cands[a])
+            for sb in segs(cands[b])
+        )
+    }
+    assert len(want) > 0
+
+    def on_the_limit(a: int, b: int) -> bool:
+        """Two segments cross at 60.5° up to the last bit (an arm of a junction built at
+        exactly 120° from a cut sampled at its window's edge): both answers are right."""
+        lim = np.cos(np.radians(60.5))
+        for sa in segs(cands[a]):
+            for sb in segs(cands[b]):
+                da, db = sa.end - _p0(z, sa), sb.end - _p0(z, sb)
+                if abs(abs((np.conj(da) * db).real) / abs(da) / abs(db) - lim) < 1e-12:
+                    return True
+        return False
+
+    assert all(on_the_limit(a, b) for a, b in got ^ want)
+
+
 @pytest.mark.parametrize(
     ("name", "most_per_vertex"), [("slit_355deg", 40), ("river", 10), ("stroke_spiral", 25)]
 )
