@@ -97,6 +97,8 @@ JUNCTION_SECONDS = 1.0
 #: the search with junctions states the conflicts as support rows (one per candidate and
 #: slot) while there are at most this many
 SUPPORT_ROWS = 0
+#: the search with junctions is started only with at least this many seconds left
+MIN_JUNCTION_SECONDS = 0.2
 #: relative gap to the cheapest layout at which the search with junctions stops
 JUNCTION_GAP = 0.25
 #: a search with more conflicting pairs than this is given up at once (the integer program
@@ -647,6 +649,7 @@ def _hubs_on_rays(
     diam: float,
     long: list[_Ray],
     rigid: frozenset[int],
+    deadline: float = math.inf,
 ) -> list[_Ray]:
     """Junctions at points sampled along the cuts ``long``: the cut runs from its corner to
     the hub, and further arms leave the hub to corners in view (whose windows admit them) or to
@@ -657,6 +660,8 @@ def _hubs_on_rays(
     out: list[_Ray] = []
     base_dirs = np.exp(2j * np.pi * np.arange(HUB_DIRECTIONS) / HUB_DIRECTIONS)
     for r in long:
+        if time.perf_counter() > deadline:
+            break
         for f in HUB_POSITIONS:
             hub = complex(z[r.start] + f * r.reach * r.d)
             if f * r.reach < gap or _boundary_dist(z, hub) < gap:
@@ -725,8 +730,9 @@ def _junctions(
     long: list[_Ray],
     rigid: frozenset[int] = frozenset(),
     exact: frozenset[int] = frozenset(),
+    deadline: float = math.inf,
 ) -> list[_Ray]:
-    """Junction candidates: interior points where three or four cuts meet, each a single
+    """Junction candidates: interior points where three or more cuts meet, each a single
     candidate covering the cut slots of the corners its arms reach.
 
     * An *X*: two cuts ``long`` (full rays, or rays whose own boundary end is unusable) from
@@ -751,9 +757,10 @@ def _junctions(
     e_out = np.roll(z, -1) - z
     wins = [_windows(float(t), i in exact) for i, t in enumerate(theta)]
     corners = np.array([i for i in range(n) if wins[i]], dtype=np.int64)
-    out: list[_Ray] = []
     if len(long) < 1 or len(corners) < 2:
-        return out
+        return []
+    # hubs along the cuts first: when time runs short they are the most useful
+    stars = _hubs_on_rays(z, wins, e_out, corners, diam, long, rigid, deadline)
     P = np.array([z[r.start] for r in long], dtype=np.complex128)
     Q = np.array([r.end for r in long], dtype=np.complex128)
     D = Q - P
@@ -780,8 +787,9 @@ def _junctions(
     )
     ia, ib = np.nonzero(ok)
     order = np.argsort(s[ia, ib] * L[ia] + t[ia, ib] * L[ib], kind="stable")
-    stars: list[_Ray] = []
     for k in order[:MAX_JUNCTION_PAIRS].tolist():
+        if time.perf_counter() > deadline:
+            break
         a, b = int(ia[k]), int(ib[k])
         ra, rb = long[a], long[b]
         hub = complex(P[a] + s[a, b] * D[a])
@@ -830,6 +838,8 @@ def _junctions(
         checkpoint()
     # Y: a cut from a, and a cut from b meeting it at exactly 120°
     for r in long:
+        if time.perf_counter() > deadline:
+            break
         zb = z[corners]
         wv = (zb - z[r.start]) / r.d  # b in the frame of the cut (along +real)
         ss = wv.real - np.abs(wv.imag) / math.sqrt(3.0)
@@ -864,7 +874,6 @@ def _junctions(
             )
             stars.append(_star([arm_a, arm_b, arm_c], hub, exact=True))
         checkpoint()
-    stars += _hubs_on_rays(z, wins, e_out, corners, diam, long, rigid)
     stars.sort(key=lambda c: c.cost)
     return stars[:MAX_JUNCTIONS]
 
@@ -984,13 +993,20 @@ def _conflicts(z: NDArray[np.complex128], cands: list[_Ray], diam: float) -> lis
         res = upper & ~tee & ~share & geo
         i, j = np.nonzero(res)
         found.append((a[i, 0], j))
+        # pairs sharing a corner: one by one for cuts, at once for junction arms (many)
+        i, j = np.nonzero(upper & ~tee & share)
+        ia = a[i, 0]
+        arm = (start[ia] < 0) | (start[j] < 0)
         si, sj = [], []
-        for i, j in zip(*np.nonzero(upper & ~tee & share)):
-            ai, bj = int(a[i, 0]), int(j)
+        for ai, bj in zip(ia[~arm].tolist(), j[~arm].tolist()):
             if _pair_conflicts(z, rays[ai], rays[bj], gap):
                 si.append(ai)
                 sj.append(bj)
         found.append((np.array(si, dtype=np.int64), np.array(sj, dtype=np.int64)))
+        if np.any(arm):
+            ia, ja = ia[arm], j[arm]
+            hit = _shared_corner_conflicts(z, P, Q, start, join, ia, ja)
+            found.append((ia[hit], ja[hit]))
     oa = owner[np.concatenate([f[0] for f in found])]
     ob = owner[np.concatenate([f[1] for f in found])]
     if nr == len(cands):  # no junctions: the pairs as found
@@ -999,6 +1015,35 @@ def _conflicts(z: NDArray[np.complex128], cands: list[_Ray], diam: float) -> lis
     lo_, hi_ = np.minimum(oa, ob), np.maximum(oa, ob)
     code = np.unique(lo_ * len(cands) + hi_)
     return list(zip((code // len(cands)).tolist(), (code % len(cands)).tolist()))
+
+
+def _shared_corner_conflicts(
+    z: NDArray[np.complex128],
+    P: NDArray[np.complex128],
+    Q: NDArray[np.complex128],
+    start: NDArray[np.int64],
+    join: NDArray[np.int64],
+    ia: NDArray[np.int64],
+    ib: NDArray[np.int64],
+) -> NDArray[np.bool_]:
+    """For pairs ``(ia, ib)`` of segments (from ``P`` to ``Q``, leaving corner ``start`` or
+    -1, reaching corner ``join`` or -1) that share a corner: whether they conflict by the rule
+    of :func:`_pair_conflicts` (the same segment, or a part between them at that corner
+    outside [60.5°, 119.5°]), at once."""
+    m = LAYOUT_MARGIN
+    sa, ja, sb, jb = start[ia], join[ia], start[ib], join[ib]
+    ss = (sa >= 0) & (sa == sb)
+    sj = (jb >= 0) & (sa == jb)
+    js = (ja >= 0) & (ja == sb)
+    jj = (ja >= 0) & (ja == jb)
+    same = (ss & jj) | (sj & js)
+    v = np.where(ss | sj, sa, ja)
+    zv = z[v]
+    ev = z[(v + 1) % len(z)] - zv
+    da = np.where(sa == v, Q[ia] - zv, P[ia] - zv)
+    db = np.where(sb == v, Q[ib] - zv, P[ib] - zv)
+    diff = np.abs(np.degrees(np.angle(da / ev)) % 360.0 - np.degrees(np.angle(db / ev)) % 360.0)
+    return same | ~((diff >= ANGLE_MIN + m) & (diff <= ANGLE_MAX - m))
 
 
 def _point_seg_dist(p: complex, a: complex, b: complex) -> float:
@@ -1497,12 +1542,27 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     z = np.asarray(polygon, dtype=np.complex128)
     theta = _angles_deg(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
+    h = default_block_size(z) if size is None else float(size)
     if len(tips):
-        h = default_block_size(z) if size is None else float(size)
         lay = _kite_layout(z, theta, tips, h)
         if lay is not None:
             return lay
-    return _cut_layout(z)
+    try:
+        return _cut_layout(z)
+    except BlockLayoutError as exc:
+        if "would be needed" in exc.args[0]:
+            raise
+        error = exc
+    # only where nothing else closes: cuts may meet at junctions (the layouts that closed
+    # without them stay as they were)
+    if len(tips):
+        lay = _kite_layout(z, theta, tips, h, junctions=True)
+        if lay is not None:
+            return lay
+    try:
+        return _cut_layout(z, junctions=True)
+    except BlockLayoutError:
+        raise error from None
 
 
 @dataclass(frozen=True)
@@ -1525,12 +1585,23 @@ def _long(rays: list[_Ray], bare: list[_Ray]) -> list[_Ray]:
 
 
 def _cut_layout(
-    z: NDArray[np.complex128], kites: _KiteCut = _KiteCut(), seconds: float = SEARCH_SECONDS
+    z: NDArray[np.complex128],
+    kites: _KiteCut = _KiteCut(),
+    seconds: float = SEARCH_SECONDS,
+    junctions: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
-    no cut ends inside a kite side and no split crosses a kite (:class:`_KiteCut`); the rounds
-    of the search stop after ``seconds``."""
+    no cut ends inside a kite side and no split crosses a kite (:class:`_KiteCut`).
+
+    The search runs in stages: straight cuts, then also cuts ending on other cuts
+    (T-junctions), each stage's rounds stopping after ``seconds``.  With ``junctions`` only
+    the stage with junctions of three or more cuts runs (:func:`_junctions`; cuts and
+    T-junctions are among its candidates), within ``seconds`` in all, and only where some
+    corner has no straight cut of its own to the boundary: polygons whose every corner has one
+    and still fail are not helped by junctions in practice, and the search would only delay
+    the collar that closes them."""
+    deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
@@ -1548,23 +1619,21 @@ def _cut_layout(
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
-    # the stages of the search: straight cuts, then also T-junctions, then also junctions of
-    # three or four cuts; a stage runs only where its candidates cover every cut slot
     small = len(rays) + len(bare) <= MAX_RAYS_FOR_TEES
+    if junctions and not (missing and small):
+        raise BlockLayoutError("every corner has a straight cut of its own: no junction searched")
     tee_rays: list[_Ray] | None = None
-    stars: list[_Ray] | None = None
+    stars: list[_Ray] = []
     first = 0
     if missing and small:
         # corners whose every cut meets the boundary badly may still end a cut on another one
         tee_rays = _t_variants(z, rays, diam, bare=bare)
         covered |= {s for r in tee_rays for s in r.slots}
-        missing = [s for s in slots if s not in covered]
         first = 1
-        if missing:  # ... or at a junction with other cuts
-            stars = _junctions(z, theta, diam, _long(rays, bare), kites.rigid, exact)
+        if junctions:  # ... or at a junction with other cuts
+            stars = _junctions(z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline)
             covered |= {s for r in stars for s in r.slots}
-            missing = [s for s in slots if s not in covered]
-            first = 2
+        missing = [s for s in slots if s not in covered]
     if missing:
         vs = sorted({i for i, _ in missing})
         raise BlockLayoutError(
@@ -1579,16 +1648,14 @@ def _cut_layout(
     has_slot = np.zeros(n, dtype=bool)
     has_slot[[i for i, _ in slots]] = True
     problems: list[str] = []
-    # junctions are searched for only where some corner has no straight cut of its own to
-    # the boundary (polygons whose every corner has one and still fail are not helped by them
-    # in practice, and the search would only delay the collar that closes them)
-    last = (2 if first >= 1 else 1) if small else 0
-    for stage in range(first, last + 1):
+    for stage in [2] if junctions else range(first, (1 if small else 0) + 1):
         if stage >= 1 and tee_rays is None:
             tee_rays = _t_variants(z, rays, diam, bare=bare)
-        if stage == 2 and stars is None:
-            stars = _junctions(z, theta, diam, _long(rays, bare), kites.rigid, exact)
-        pool = rays + (tee_rays if stage >= 1 else []) + (stars if stage == 2 else [])
+        left = deadline - time.perf_counter()
+        if stage == 2 and left < MIN_JUNCTION_SECONDS:
+            problems.append("no time left for junctions")
+            break
+        pool = rays + (tee_rays if stage >= 1 else []) + stars
         checkpoint()
         # with junctions the integer program is large: a layout close to the cheapest will do
         lay = _search(
@@ -1601,7 +1668,7 @@ def _cut_layout(
             diam,
             problems,
             kites,
-            min(seconds, JUNCTION_SECONDS) if stage == 2 else seconds,
+            min(JUNCTION_SECONDS, left) if stage == 2 else seconds,
             JUNCTION_GAP if stage == 2 else None,
         )
         if lay is not None:
@@ -1641,12 +1708,17 @@ def _tip_kite(
 
 
 def _kite_layout(
-    z: NDArray[np.complex128], theta: NDArray[np.float64], tips: NDArray[np.int64], h: float
+    z: NDArray[np.complex128],
+    theta: NDArray[np.float64],
+    tips: NDArray[np.int64],
+    h: float,
+    junctions: bool = False,
 ) -> BlockLayout | None:
     """The layout of :func:`block_layout` with every tip cut off by a kite (:func:`_tip_kite`):
     the first that closes over the inner angles of :data:`KITE_INNER` and the kite sizes ``h``
     and ``h/2`` (each at most :data:`KITE_EDGE_SHARE` of the edges at the tip), within
-    :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``."""
+    :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``.
+    ``junctions``: search with junctions only (:func:`_cut_layout`)."""
     from shapely.geometry import Polygon as ShapelyPolygon
 
     n = len(z)
@@ -1702,6 +1774,7 @@ def _kite_layout(
                     zr,
                     _KiteCut(tuple(kites), frozenset(rigid), frozenset(exact)),
                     min(left, SEARCH_SECONDS),
+                    junctions,
                 )
             except BlockLayoutError as exc:
                 if "would be needed" in exc.args[0]:
