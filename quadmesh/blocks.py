@@ -698,13 +698,11 @@ def _hubs_on_rays(
             for favour in (0.0, 1.5):
                 # a join serves another corner's cut: favoured, it makes the cheapest choice
                 # the one that reaches most corners
-                orig = {
-                    id(c): arm for a, arm in joins for c in [replace(arm, cost=arm.cost - favour)]
-                }
-                pool = cand + [(a, replace(arm, cost=arm.cost - favour)) for a, arm in joins]
-                cyc = _cycle(pool)
+                cheap = [(a, replace(arm, cost=arm.cost - favour), arm) for a, arm in joins]
+                cyc = _cycle(cand + [(a, c) for a, c, _ in cheap])
                 if cyc is None:
                     continue
+                orig = {id(c): arm for _, c, arm in cheap}  # the joins at their own cost
                 arms = [orig.get(id(a), a) for a in cyc]
                 key = tuple(sorted(id(a) for a in arms))
                 if key in seen:
@@ -1526,6 +1524,10 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     tip no longer forces one segment on every chord through a block reaching across the
     polygon.  If no layout with kites closes, the tips' blocks are kept whole instead.
 
+    Only when neither closes are cuts allowed to meet at *junctions* (interior points where
+    three or more cuts meet, :func:`_junctions`), with kites first, then with the tips' blocks
+    kept whole; the layouts that close without junctions are found as before.
+
     Args:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
         size: the block size the layout will be refined to (default
@@ -1534,7 +1536,8 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     Returns:
         A :class:`BlockLayout` whose cells are convex, counter-clockwise, conforming, cover the
         polygon exactly and have every corner in [60.25°, 119.75°] except the polygon's own
-        corners below 60° (tips).
+        corners below 60° (tips) and corners built at exactly 60° or 120° (centres of triangle
+        and hexagon faces, the two sides of a kite's axis, three-arm junctions).
 
     Raises:
         BlockLayoutError: no set of cuts was found (the message says at which corners).
