@@ -93,7 +93,10 @@ HUB_DIRECTIONS = 48
 #: a junction costs this on top of its arms (a layout without one is simpler)
 JUNCTION_COST = 0.5
 #: wall-clock seconds the search with junction candidates may take
-JUNCTION_SECONDS = 1.0
+JUNCTION_SECONDS = 2.0
+#: wall-clock seconds for the layout with junctions and the tips' blocks kept whole, from the
+#: candidates to the last round of its search
+JUNCTION_LAYOUT_SECONDS = 6.0
 #: the search with junctions states the conflicts as support rows (one per candidate and
 #: slot) while there are at most this many
 SUPPORT_ROWS = 0
@@ -1128,7 +1131,9 @@ def _solve(
         # (HiGHS's presolve spends a second on the dense rows of the junction search)
         | ({} if rel_gap is None else {"mip_rel_gap": rel_gap, "presolve": False}),
     )
-    if res.status != 0 or res.x is None:
+    # with a gap, a layout found before the time ran out will do as well (status 1: the time
+    # limit was reached with a feasible solution)
+    if res.x is None or not (res.status == 0 or (rel_gap is not None and res.status == 1)):
         return None
     return [int(c) for c in np.nonzero(res.x > 0.5)[0]]
 
@@ -1563,7 +1568,7 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
         if lay is not None:
             return lay
     try:
-        return _cut_layout(z, junctions=True)
+        return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True)
     except BlockLayoutError:
         raise error from None
 
