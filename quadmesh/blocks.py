@@ -732,9 +732,12 @@ def _junctions(
     rigid: frozenset[int] = frozenset(),
     exact: frozenset[int] = frozenset(),
     deadline: float = math.inf,
+    needy: frozenset[tuple[int, int]] | None = None,
 ) -> list[_Ray]:
     """Junction candidates: interior points where three or more cuts meet, each a single
-    candidate covering the cut slots of the corners its arms reach.
+    candidate covering the cut slots of the corners its arms reach.  With ``needy`` (cut slots
+    no straight cut serves) only junctions that serve one of them are built: on a cut of a
+    needy slot, or with an arm to a corner that has one.
 
     * An *X*: two cuts ``long`` (full rays, or rays whose own boundary end is unusable) from
       different corners that cross at an angle ω with ω and 360° - ω both in [121°, 239°]
@@ -760,8 +763,14 @@ def _junctions(
     corners = np.array([i for i in range(n) if wins[i]], dtype=np.int64)
     if len(long) < 1 or len(corners) < 2:
         return []
+    if needy is None:
+        needy = frozenset(s for r in long for s in r.slots)
+    mine = np.array([bool(set(r.slots) & needy) for r in long])  # cuts of needy slots
+    short = np.array(sorted({i for i, _ in needy}), dtype=np.int64)  # corners with one
     # hubs along the cuts first: when time runs short they are the most useful
-    stars = _hubs_on_rays(z, wins, e_out, corners, diam, long, rigid, deadline)
+    stars = _hubs_on_rays(
+        z, wins, e_out, corners, diam, [r for r, k in zip(long, mine) if k], rigid, deadline
+    )
     P = np.array([z[r.start] for r in long], dtype=np.complex128)
     Q = np.array([r.end for r in long], dtype=np.complex128)
     D = Q - P
@@ -785,6 +794,7 @@ def _junctions(
         & ((1 - t) * L[None, :] > gap)
         & (omega >= lo_w)
         & (omega <= hi_w)
+        & (mine[:, None] | mine[None, :])
     )
     ia, ib = np.nonzero(ok)
     order = np.argsort(s[ia, ib] * L[ia] + t[ia, ib] * L[ib], kind="stable")
@@ -837,16 +847,15 @@ def _junctions(
                     continue
                 stars.append(_star([arm_a, x, arm_b, y], hub))
         checkpoint()
-    # Y: a cut from a, and a cut from b meeting it at exactly 120°
-    for r in long:
+    # Y: a cut from a, and a cut from b meeting it at exactly 120°, one of them needy
+    for r, own in zip(long, mine.tolist()):
         if time.perf_counter() > deadline:
             break
-        zb = z[corners]
-        wv = (zb - z[r.start]) / r.d  # b in the frame of the cut (along +real)
+        cs = corners if own else short
+        wv = (z[cs] - z[r.start]) / r.d  # b in the frame of the cut (along +real)
         ss = wv.real - np.abs(wv.imag) / math.sqrt(3.0)
-        good = (corners != r.start) & (ss > gap) & (ss < r.reach - gap) & (np.abs(wv.imag) > gap)
-        for b in corners[good].tolist():
-            sv = float(ss[corners == b][0])
+        good = (cs != r.start) & (ss > gap) & (ss < r.reach - gap) & (np.abs(wv.imag) > gap)
+        for b, sv in zip(cs[good].tolist(), ss[good].tolist()):
             hub = complex(z[r.start] + sv * r.d)
             if _boundary_dist(z, hub) < gap:
                 continue
@@ -1639,7 +1648,9 @@ def _cut_layout(
         covered |= {s for r in tee_rays for s in r.slots}
         first = 1
         if junctions:  # ... or at a junction with other cuts
-            stars = _junctions(z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline)
+            stars = _junctions(
+                z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline, frozenset(missing)
+            )
             covered |= {s for r in stars for s in r.slots}
         missing = [s for s in slots if s not in covered]
     if missing:
