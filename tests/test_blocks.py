@@ -253,6 +253,39 @@ def test_junctions_close_the_arrow_and_the_two_tip_triangle(name, verts, tmp_pat
     assert got["n_quads"] == res.mesh.n_quads
 
 
+def test_hub_arms_are_chosen_with_every_angle_in_range() -> None:
+    """Around a hub the cheapest choice of arms has every angle between neighbours in
+    [60.5°, 119.5°] (or exactly 120°), the first arm always taken; with no such choice there is
+    none."""
+    from quadmesh.blocks import _cycle, _Ray
+
+    def arm(cost: float) -> _Ray:
+        return _Ray(-1, 1 + 0j, 1 + 0j, -1, 0.0, -1, [], cost)
+
+    rng = np.random.default_rng(7)
+    found = 0
+    for _ in range(200):
+        angles = np.sort(rng.uniform(1.0, 359.0, rng.integers(2, 12)))
+        arms = [(0.0, arm(1.0))] + [
+            (float(a), arm(float(c))) for a, c in zip(angles, rng.uniform(0.1, 2, len(angles)))
+        ]
+        got = _cycle(arms)
+        by_id = {id(r): a for a, r in arms}
+        if got is None:
+            continue
+        assert got[0] is arms[0][1]
+        chosen = np.array([by_id[id(r)] for r in got])
+        gaps = np.diff(np.append(chosen, 360.0))
+        ok = ((gaps >= 60.5) & (gaps <= 119.5)) | (np.abs(gaps - 120.0) < 1e-9)
+        assert np.all(ok) and len(got) >= 3
+        found += 1
+    assert found >= 20  # the random turns do leave choices (48 of 200 with this seed)
+    # exactly 120° apart: a Y; 130° apart leaves no choice
+    y = [(0.0, arm(1.0)), (120.0, arm(1.0)), (240.0, arm(1.0)), (200.0, arm(0.1))]
+    assert [id(r) for r in _cycle(y)] == [id(y[k][1]) for k in range(3)]
+    assert _cycle([(0.0, arm(1.0)), (130.0, arm(1.0)), (260.0, arm(1.0))]) is None
+
+
 def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
     """The two-tip triangle's layout: both tips in kites, the kites' axes and the apex's cut
     meeting at one interior point with the fourth cut running to the base; all six cells have
