@@ -100,6 +100,9 @@ JUNCTION_LAYOUT_SECONDS = 6.0
 #: the search with junctions states the conflicts as support rows (one per candidate and
 #: slot) while there are at most this many
 SUPPORT_ROWS = 0
+#: junctions are searched for even where every cut slot has a straight cut of its own when
+#: the polygon has a reflex corner and at most this many slots
+JUNCTION_ANY_SLOTS = 8
 #: the search with junctions is started only with at least this many seconds left
 MIN_JUNCTION_SECONDS = 0.2
 #: relative gap to the cheapest layout at which the search with junctions stops
@@ -1615,9 +1618,10 @@ def _cut_layout(
     (T-junctions), each stage's rounds stopping after ``seconds``.  With ``junctions`` only
     the stage with junctions of three or more cuts runs (:func:`_junctions`; cuts and
     T-junctions are among its candidates), within ``seconds`` in all, and only where some
-    corner has no straight cut of its own to the boundary: polygons whose every corner has one
-    and still fail are not helped by junctions in practice, and the search would only delay
-    the collar that closes them."""
+    corner has no straight cut of its own to the boundary or the polygon has a reflex corner
+    and at most :data:`JUNCTION_ANY_SLOTS` cut slots: round outlines with many obtuse corners
+    are not helped by junctions in practice, and the search would only delay the collar that
+    closes them."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
@@ -1637,8 +1641,14 @@ def _cut_layout(
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
     small = len(rays) + len(bare) <= MAX_RAYS_FOR_TEES
-    if junctions and not (missing and small):
+    # junctions serve the cut slots no straight cut serves; where every slot has one, they are
+    # still tried on a polygon with few cuts and a reflex corner (an arrow with swept-back
+    # barbs), never on round outlines with many obtuse corners, which the collar closes
+    few = len(slots) <= JUNCTION_ANY_SLOTS and bool(np.any(theta > 180.0))
+    if junctions and not (small and (missing or few)):
         raise BlockLayoutError("every corner has a straight cut of its own: no junction searched")
+    if junctions and not missing:
+        missing = list(slots)
     tee_rays: list[_Ray] | None = None
     stars: list[_Ray] = []
     first = 0

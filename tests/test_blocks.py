@@ -45,8 +45,8 @@ ARROW = np.array(
         [0.0, 0.65],
     ]
 )
-#: the arrow with its barbs swept back (46.6° barbs, 286° corners at the shaft): no block
-#: layout, ladder or collar closes
+#: the arrow with its barbs swept back (46.6° barbs, 286° corners at the shaft): closes only
+#: with a junction, although every corner has a straight cut of its own
 BARBED_ARROW = np.array(
     [
         [0.0, 0.35],
@@ -197,6 +197,16 @@ def test_tip_kite_corners_for_every_tip_angle(theta: float) -> None:
         assert abs(A - 0.5) < 1e-12 and abs(B - 0.5 * np.exp(1j * t)) < 1e-12
 
 
+#: a four-pointed star (30.1° points, 239.9° corners between them): no block layout, ladder or
+#: collar closes
+FOUR_STAR = np.column_stack(
+    [
+        np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.cos(np.pi / 2 + np.pi * np.arange(8) / 4),
+        np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.sin(np.pi / 2 + np.pi * np.arange(8) / 4),
+    ]
+)
+
+
 def _plain_angles(v: np.ndarray, q: np.ndarray) -> np.ndarray:
     """(Q, 4) corner angles in degrees of quads ``q`` over (V, 2) points ``v``, in plain numpy
     (each corner from its two edge vectors), and whether every quad turns left at every
@@ -210,11 +220,14 @@ def _plain_angles(v: np.ndarray, q: np.ndarray) -> np.ndarray:
     return 180.0 - np.degrees(np.arctan2(cross, dot))
 
 
-@pytest.mark.parametrize(("name", "verts"), [("arrow", ARROW), ("two_tips", TWO_TIPS)])
+@pytest.mark.parametrize(
+    ("name", "verts"), [("arrow", ARROW), ("barbed_arrow", BARBED_ARROW), ("two_tips", TWO_TIPS)]
+)
 def test_junctions_close_the_arrow_and_the_two_tip_triangle(name, verts, tmp_path) -> None:
     """Layouts that need an interior point where three or four cuts meet: the arrow (the cuts
-    from the 270° corners end at junctions in the head) and the isosceles triangle with two
-    10° tips (both kites' axes and the apex's cut meet at one point).  Both close without the
+    from the 270° corners end at junctions in the head), the arrow with swept-back barbs, and
+    the isosceles triangle with two 10° tips (both kites' axes and the apex's cut meet at one
+    point).  All close without the
     paper's construction; every angle of the mesh, computed here from the returned
     coordinates, is in [60°, 120°] but the polygon's own corners below 60°, each in one quad
     with its own angle; the written file passes the independent check."""
@@ -309,7 +322,7 @@ def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
 
 
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
-    res = mesh_polygon(BARBED_ARROW, MeshOptions(method="blocks"))  # no cuts, ladder, collar
+    res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
     assert res.pieces and res.verification.ok
@@ -405,7 +418,7 @@ def test_benchmark_reports_block_closure() -> None:
     from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
 
     ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
-    fb = _mesh_vertices(BARBED_ARROW, MeshOptions(method="blocks"))
+    fb = _mesh_vertices(FOUR_STAR, MeshOptions(method="blocks"))
     assert ok["status"] == fb["status"] == "meshed"
     assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
     base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
