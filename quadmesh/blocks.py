@@ -1662,6 +1662,8 @@ def _cut_layout(
                 z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline, frozenset(missing)
             )
             covered |= {s for r in stars for s in r.slots}
+            if not stars:  # the search would be the one that already failed
+                raise BlockLayoutError("no junction of three or more cuts fits in the polygon")
         missing = [s for s in slots if s not in covered]
     if missing:
         vs = sorted({i for i, _ in missing})
