@@ -97,9 +97,6 @@ JUNCTION_SECONDS = 2.0
 #: wall-clock seconds for the layout with junctions and the tips' blocks kept whole, from the
 #: candidates to the last round of its search
 JUNCTION_LAYOUT_SECONDS = 6.0
-#: the search with junctions states the conflicts as support rows (one per candidate and
-#: slot) while there are at most this many
-SUPPORT_ROWS = 0
 #: junctions are searched for even where every cut slot has a straight cut of its own when
 #: the polygon has a reflex corner and at most this many slots
 JUNCTION_ANY_SLOTS = 8
@@ -1087,9 +1084,7 @@ def _solve(
             cols.append(c)
     A_eq = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(slots), nr))
     cons = [LinearConstraint(A_eq, 1, 1)]
-    # with junctions: support rows (below) instead of the pairs, when they are few
-    support = rel_gap is not None and bool(bad) and len(slots) * nr <= SUPPORT_ROWS
-    if bad and not support:
+    if bad:
         bb = np.array(bad)
         k = len(bb)
         A_b = coo_matrix((np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, nr))
@@ -1115,24 +1110,6 @@ def _solve(
         row = np.zeros(nr)
         row[ng] = 1
         cons.append(LinearConstraint(row[None, :], -np.inf, len(ng) - 1))
-    if support:
-        # a chosen candidate needs, for every slot it does not serve, a chosen candidate that
-        # agrees with it: x_c <= the sum of those.  With one candidate per slot this forbids
-        # every conflicting pair (the one chosen for the other's slot must agree), and it is
-        # far tighter than the pairs
-        ok = np.ones((nr, nr), dtype=bool)
-        bb = np.array(bad)
-        ok[bb[:, 0], bb[:, 1]] = ok[bb[:, 1], bb[:, 0]] = False
-        cover = A_eq.tocsr().toarray().astype(bool)  # (slots, candidates)
-        rows_c, rows_s = np.nonzero(~cover.T)  # candidate c does not cover slot s
-        agree = cover[rows_s] & ok[rows_c]  # (rows, candidates)
-        r_i, c_i = np.nonzero(agree)
-        vals = np.concatenate([np.ones(len(rows_c)), -np.ones(len(r_i))])
-        A_s = coo_matrix(
-            (vals, (np.concatenate([np.arange(len(rows_c)), r_i]), np.concatenate([rows_c, c_i]))),
-            shape=(len(rows_c), nr),
-        )
-        cons.append(LinearConstraint(A_s, -np.inf, 0))
     cost = np.array([r.cost for r in rays])
     res = milp(
         cost,
