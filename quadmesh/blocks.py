@@ -23,10 +23,17 @@ The cuts:
   cannot be split about a centre with angles in range is excluded by a new constraint and the
   search runs again.
 
+Where some corner has no cut of its own that meets the boundary well, a cut may also end at a
+*junction*: an interior point where three or more cuts meet, all its angles in [60°, 120°]
+(three arms: exactly 120° each), its other arms running to corners (serving their cuts) or to
+the boundary.  A junction is one candidate of the integer program, covering the cut slots of
+all the corners its arms reach (:func:`_junctions`).
+
 A corner below 60° (a *tip*) is first cut off by a *tip kite* about one block size long (the
 tip, a point on each of its edges, a point on its bisector; :func:`_tip_kite`): the rest of the
 polygon gets a reflex corner of at least 240° there, cut like any other, and no cut may end on
-the kite, the one cell that is never split.  If no layout with kites closes, the tips' blocks
+the kite, which is never split, nor are the quads on the chords through it (a split would reach
+the kite).  If no layout with kites closes, the tips' blocks
 are kept whole instead.
 
 Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are complex128.
@@ -36,7 +43,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import pairwise
 
 import numpy as np
@@ -71,8 +78,32 @@ ANGLE_TOL = 1e-7
 #: most cut slots (corners above 120°, two for those above 240°) a layout is searched for; the
 #: pairwise search grows with the square of the candidates
 MAX_SLOTS = 120
-#: T-junction candidates are tried only while the full rays number at most this
+#: T-junction and junction candidates are tried only while the full rays number at most this
 MAX_RAYS_FOR_TEES = 1000
+#: pairs of crossing cuts (the shortest arms first) tried as four-arm junctions
+MAX_JUNCTION_PAIRS = 400
+#: most junction candidates one search gets (the cheapest)
+MAX_JUNCTIONS = 200
+#: free-arm directions sampled in each angle of a junction
+ARM_SAMPLES = 7
+#: points along each cut tried as hubs of junctions (fractions of its length)
+HUB_POSITIONS = (0.2, 0.35, 0.5, 0.65, 0.8)
+#: free-arm directions tried at a hub (evenly spread over a turn)
+HUB_DIRECTIONS = 48
+#: a junction costs this on top of its arms (a layout without one is simpler)
+JUNCTION_COST = 0.5
+#: wall-clock seconds the search with junction candidates may take
+JUNCTION_SECONDS = 2.0
+#: wall-clock seconds for the layout with junctions and the tips' blocks kept whole, from the
+#: candidates to the last round of its search
+JUNCTION_LAYOUT_SECONDS = 6.0
+#: junctions are searched for even where every cut slot has a straight cut of its own when
+#: the polygon has a reflex corner and at most this many slots
+JUNCTION_ANY_SLOTS = 8
+#: the search with junctions is started only with at least this many seconds left
+MIN_JUNCTION_SECONDS = 0.2
+#: relative gap to the cheapest layout at which the search with junctions stops
+JUNCTION_GAP = 0.25
 #: a search with more conflicting pairs than this is given up at once (the integer program
 #: would take minutes to prove that no layout exists, and layouts that close have far fewer)
 MAX_CONFLICTS = 150_000
@@ -118,6 +149,7 @@ class BlockLayout:
             the cells).
         kites: True when the tips were cut off by tip kites (:func:`block_layout`), each
             tip the corner of one small kite cell rather than of a block reaching across.
+        junctions: interior points where three or four cuts meet (:func:`_junctions`).
     """
 
     polygon: NDArray[np.complex128]
@@ -132,6 +164,7 @@ class BlockLayout:
     angles: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4)))
     kind: str = "cuts"
     kites: bool = False
+    junctions: int = 0
 
     @property
     def n_cells(self) -> int:
@@ -196,6 +229,27 @@ class _Ray:
     base: int = -1  # the full ray this one is cut from (its own index for a full ray)
     stop: int = -1  # base id of the ray this one ends on (a T-junction), else -1
     reach: float = 0.0  # distance from the start to the end
+    p0: complex | None = None  # where the segment starts when not at z[start] (a junction arm)
+    arms: tuple[_Ray, ...] = ()  # a junction: its arms, each from the hub outwards
+    hub: complex | None = None  # a junction's interior point
+    exact: bool = False  # the hub's angles are exactly 120° (three arms)
+
+
+def _p0(z: NDArray[np.complex128], r: _Ray) -> complex:
+    """Where the segment ``r`` starts: its corner, or a junction's hub for an arm."""
+    return complex(z[r.start]) if r.p0 is None else r.p0
+
+
+def _segments(rays: list[_Ray]) -> tuple[list[_Ray], NDArray[np.int64]]:
+    """The straight segments of candidate cuts (a junction contributes its arms) and, for
+    each, the index of the candidate it belongs to."""
+    segs: list[_Ray] = []
+    owner: list[int] = []
+    for k, r in enumerate(rays):
+        parts = r.arms if r.arms else (r,)
+        segs.extend(parts)
+        owner.extend([k] * len(parts))
+    return segs, np.asarray(owner, dtype=np.int64)
 
 
 def _first_hit(z: NDArray[np.complex128], i: int, d: complex) -> tuple[float, int, float] | None:
@@ -375,6 +429,465 @@ def _t_variants(
     return out
 
 
+def _slot_of(
+    wins: list[list[tuple[float, float]]], e_out: NDArray[np.complex128], i: int, d: complex
+) -> int | None:
+    """The cut slot of corner ``i`` whose window holds the direction ``d``, or None."""
+    phi = math.degrees(math.atan2((d / e_out[i]).imag, (d / e_out[i]).real)) % 360.0
+    for k, (a, b) in enumerate(wins[i]):
+        if a - 1e-9 <= phi <= b + 1e-9:
+            return k
+    return None
+
+
+def _boundary_dist(z: NDArray[np.complex128], p: complex) -> float:
+    """Distance from ``p`` to the polygon's boundary."""
+    a = z
+    e = np.roll(z, -1) - z
+    t = np.clip(((p - a) * np.conj(e)).real / np.maximum(np.abs(e) ** 2, 1e-300), 0.0, 1.0)
+    return float(np.min(np.abs(p - (a + t * e))))
+
+
+def _free_arm(
+    z: NDArray[np.complex128], p: complex, d: complex, diam: float, rigid: frozenset[int]
+) -> _Ray | None:
+    """An arm from the interior point ``p`` in the unit direction ``d`` to the first boundary
+    point it meets, if it meets it at an angle in [60.5°, 119.5°], away from the corners and
+    not on a ``rigid`` edge; None otherwise."""
+    gap = POINT_GAP * diam
+    e = np.roll(z, -1) - z
+    den = (np.conj(d) * e).imag
+    w = z - p
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (np.conj(w) * e).imag / den
+        u = (np.conj(w) * d).imag / den
+    ok = (np.abs(den) > 1e-15 * np.abs(e)) & (t > 0) & (u >= 0) & (u <= 1)
+    if not np.any(ok):
+        return None
+    j = int(np.argmin(np.where(ok, t, np.inf)))
+    tj, uj, ej = float(t[j]), float(u[j]), complex(e[j])
+    alpha = _line_angle(d, ej)
+    if (
+        j in rigid
+        or tj < gap
+        or min(uj, 1 - uj) * abs(ej) < gap
+        or alpha < ANGLE_MIN + LAYOUT_MARGIN
+    ):
+        return None
+    cost = 0.5 + 0.5 * (90.0 - alpha) / 30.0 + 0.2 * tj / diam
+    return _Ray(-1, d, complex(z[j] + uj * ej), j, uj, -1, [], cost, -2, -1, tj, p0=p)
+
+
+def _corner_arm(
+    z: NDArray[np.complex128],
+    wins: list[list[tuple[float, float]]],
+    e_out: NDArray[np.complex128],
+    p: complex,
+    i: int,
+    diam: float,
+) -> _Ray | None:
+    """An arm from the interior point ``p`` to the corner ``i``, serving the cut slot of ``i``
+    whose window holds the direction from ``i`` to ``p``, if ``p`` is in view of ``i``; None
+    otherwise."""
+    v = p - z[i]
+    dist = abs(v)
+    if dist < POINT_GAP * diam:
+        return None
+    k = _slot_of(wins, e_out, i, v / dist)
+    if k is None:
+        return None
+    hit = _first_hit(z, i, v / dist)
+    if hit is None or hit[0] < dist * (1 + 1e-9):
+        return None  # the boundary is in the way
+    cost = 1.0 + 0.2 * dist / diam
+    return _Ray(-1, -v / dist, complex(z[i]), -1, 0.0, i, [(i, k)], cost, -2, -1, dist, p0=p)
+
+
+def _star(arms: list[_Ray], hub: complex, exact: bool = False) -> _Ray:
+    """A junction candidate: the ``arms`` from ``hub`` (to corners or to the boundary), one
+    candidate covering the cut slots of the corners they reach; ``exact``: the hub's angles
+    are exactly 120°."""
+    slots = [s for a in arms for s in a.slots]
+    cost = JUNCTION_COST + sum(a.cost for a in arms)
+    first = arms[0]
+    return _Ray(
+        first.start,
+        first.d,
+        first.end,
+        -1,
+        0.0,
+        -1,
+        slots,
+        cost,
+        -1,
+        -1,
+        first.reach,
+        p0=hub,
+        arms=tuple(arms),
+        hub=hub,
+        exact=exact,
+    )
+
+
+def _arc_arms(
+    z: NDArray[np.complex128],
+    wins: list[list[tuple[float, float]]],
+    e_out: NDArray[np.complex128],
+    hub: complex,
+    lo: float,
+    width: float,
+    corners: NDArray[np.int64],
+    diam: float,
+    rigid: frozenset[int],
+    extra: list[complex],
+) -> list[_Ray]:
+    """Arms that split the angle at ``hub`` from direction ``lo`` (degrees) over ``width``
+    degrees into two parts in [60.5°, 119.5°]: to a corner of ``corners`` in view whose own
+    window admits the arm, or to the boundary (:data:`ARM_SAMPLES` directions, and the
+    directions ``extra`` where they fall in range); the cheapest few, joins first."""
+    m = LAYOUT_MARGIN
+    a = lo + max(ANGLE_MIN + m, width - ANGLE_MAX + m)
+    b = lo + min(ANGLE_MAX - m, width - ANGLE_MIN - m)
+    if b < a:
+        return []
+    out: list[_Ray] = []
+    rel = np.degrees(np.angle((z[corners] - hub) * np.exp(-1j * math.radians(lo)))) % 360.0
+    for i in corners[(rel >= a - lo) & (rel <= b - lo)].tolist():
+        arm = _corner_arm(z, wins, e_out, hub, i, diam)
+        if arm is not None:
+            out.append(arm)
+    joins = sorted(out, key=lambda r: r.cost)[:2]
+    free: list[_Ray] = []
+    dirs = [complex(np.exp(1j * math.radians(p))) for p in np.linspace(a, b, ARM_SAMPLES)]
+    for d in extra:
+        phi = (math.degrees(math.atan2(d.imag, d.real)) - lo) % 360.0
+        if a - lo - 1e-9 <= phi <= b - lo + 1e-9:
+            dirs.append(d)
+    for d in dirs:
+        arm = _free_arm(z, hub, d, diam, rigid)
+        if arm is not None:
+            free.append(arm)
+    return joins + sorted(free, key=lambda r: r.cost)[: 3 - len(joins)]
+
+
+def _free_arms(
+    z: NDArray[np.complex128],
+    p: complex,
+    dirs: NDArray[np.complex128],
+    diam: float,
+    rigid: frozenset[int],
+) -> list[_Ray | None]:
+    """:func:`_free_arm` for many unit directions ``dirs`` from ``p`` at once."""
+    gap = POINT_GAP * diam
+    e = np.roll(z, -1) - z
+    w = z - p
+    den = (np.conj(dirs)[:, None] * e[None, :]).imag
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (np.conj(w) * e).imag[None, :] / den
+        u = (np.conj(w)[None, :] * dirs[:, None]).imag / den
+    ok = (np.abs(den) > 1e-15 * np.abs(e)[None, :]) & (t > 0) & (u >= 0) & (u <= 1)
+    tt = np.where(ok, t, np.inf)
+    j = np.argmin(tt, axis=1)
+    rows = np.arange(len(dirs))
+    tj, uj, ej = tt[rows, j], u[rows, j], e[j]
+    cosang = np.abs((np.conj(dirs) * ej).real) / np.abs(ej)
+    good = (
+        np.isfinite(tj)
+        & (tj >= gap)
+        & (np.minimum(uj, 1 - uj) * np.abs(ej) >= gap)
+        & (cosang <= math.cos(math.radians(ANGLE_MIN + LAYOUT_MARGIN)))
+        & ~np.isin(j, list(rigid))
+    )
+    out: list[_Ray | None] = []
+    for q in range(len(dirs)):
+        if not good[q]:
+            out.append(None)
+            continue
+        alpha = 90.0 - math.degrees(math.asin(min(1.0, float(cosang[q]))))
+        cost = 0.5 + 0.5 * (90.0 - alpha) / 30.0 + 0.2 * float(tj[q]) / diam
+        end = complex(z[j[q]] + uj[q] * ej[q])
+        d = complex(dirs[q])
+        out.append(
+            _Ray(-1, d, end, int(j[q]), float(uj[q]), -1, [], cost, -2, -1, float(tj[q]), p0=p)
+        )
+    return out
+
+
+def _cycle(arms: list[tuple[float, _Ray]]) -> list[_Ray] | None:
+    """The cheapest choice among ``arms`` (angle in degrees from the first, which is always
+    taken, counter-clockwise in [0°, 360°)) whose consecutive angles, the last back to the
+    first included, all lie in [60.5°, 119.5°] or are exactly 120° (within rounding); None
+    if there is none."""
+    lo, hi = ANGLE_MIN + LAYOUT_MARGIN, ANGLE_MAX - LAYOUT_MARGIN
+
+    def fits(g: float) -> bool:
+        return lo <= g <= hi or abs(g - ANGLE_MAX) < 1e-9
+
+    arms = sorted(arms, key=lambda x: x[0])
+    m = len(arms)
+    best = [math.inf] * m
+    prev = [-1] * m
+    best[0] = arms[0][1].cost
+    for i in range(1, m):
+        for k in range(i):
+            if best[k] + arms[i][1].cost < best[i] and fits(arms[i][0] - arms[k][0]):
+                best[i] = best[k] + arms[i][1].cost
+                prev[i] = k
+    ends = [i for i in range(1, m) if best[i] < math.inf and fits(360.0 - arms[i][0])]
+    if not ends:
+        return None
+    i = min(ends, key=lambda q: best[q])
+    out = []
+    while i >= 0:
+        out.append(arms[i][1])
+        i = prev[i]
+    return out[::-1]
+
+
+def _hubs_on_rays(
+    z: NDArray[np.complex128],
+    wins: list[list[tuple[float, float]]],
+    e_out: NDArray[np.complex128],
+    corners: NDArray[np.int64],
+    diam: float,
+    long: list[_Ray],
+    rigid: frozenset[int],
+    deadline: float = math.inf,
+) -> list[_Ray]:
+    """Junctions at points sampled along the cuts ``long``: the cut runs from its corner to
+    the hub, and further arms leave the hub to corners in view (whose windows admit them) or to
+    the boundary (every :data:`HUB_DIRECTIONS`-th of a turn, and at exactly ±120° from the
+    cut), chosen by :func:`_cycle` so that every angle at the hub is in range; per hub the
+    cheapest choice and the cheapest that favours serving other corners."""
+    gap = POINT_GAP * diam
+    out: list[_Ray] = []
+    base_dirs = np.exp(2j * np.pi * np.arange(HUB_DIRECTIONS) / HUB_DIRECTIONS)
+    for r in long:
+        if time.perf_counter() > deadline:
+            break
+        for f in HUB_POSITIONS:
+            hub = complex(z[r.start] + f * r.reach * r.d)
+            if f * r.reach < gap or _boundary_dist(z, hub) < gap:
+                continue
+            back = -r.d
+            arm0 = _Ray(
+                -1,
+                back,
+                complex(z[r.start]),
+                -1,
+                0.0,
+                r.start,
+                list(r.slots),
+                1.0 + 0.2 * f * r.reach / diam,
+                -2,
+                -1,
+                f * r.reach,
+                p0=hub,
+            )
+            dirs = np.concatenate(
+                [base_dirs * back, back * np.exp(2j * np.pi / 3 * np.array([1, -1]))]
+            )
+            cand: list[tuple[float, _Ray]] = [(0.0, arm0)]
+            for arm in _free_arms(z, hub, dirs, diam, rigid):
+                if arm is not None:
+                    cand.append((_turn(arm.d, back), arm))
+            joins: list[tuple[float, _Ray]] = []
+            for i in corners[corners != r.start].tolist():
+                arm = _corner_arm(z, wins, e_out, hub, i, diam)
+                if arm is not None:
+                    joins.append((_turn(arm.d, back), arm))
+            cand = [cand[0]] + [c for c in cand[1:] if 1e-9 < c[0] < 360.0 - 1e-9]
+            seen: set[tuple[int, ...]] = set()
+            for favour in (0.0, 1.5):
+                # a join serves another corner's cut: favoured, it makes the cheapest choice
+                # the one that reaches most corners
+                cheap = [(a, replace(arm, cost=arm.cost - favour), arm) for a, arm in joins]
+                cyc = _cycle(cand + [(a, c) for a, c, _ in cheap])
+                if cyc is None:
+                    continue
+                orig = {id(c): arm for _, c, arm in cheap}  # the joins at their own cost
+                arms = [orig.get(id(a), a) for a in cyc]
+                key = tuple(sorted(id(a) for a in arms))
+                if key in seen:
+                    continue
+                seen.add(key)
+                ang = sorted(_turn(a.d, back) for a in arms)
+                exact = bool(np.any(np.diff(np.append(ang, 360.0)) > ANGLE_MAX - LAYOUT_MARGIN))
+                out.append(_star(arms, hub, exact=exact))
+        checkpoint()
+    return out
+
+
+def _turn(d: complex, ref: complex) -> float:
+    """Angle in degrees, in [0°, 360°), from direction ``ref`` counter-clockwise to ``d``."""
+    q = d / ref
+    return math.degrees(math.atan2(q.imag, q.real)) % 360.0
+
+
+def _junctions(
+    z: NDArray[np.complex128],
+    theta: NDArray[np.float64],
+    diam: float,
+    long: list[_Ray],
+    rigid: frozenset[int] = frozenset(),
+    exact: frozenset[int] = frozenset(),
+    deadline: float = math.inf,
+    needy: frozenset[tuple[int, int]] | None = None,
+) -> list[_Ray]:
+    """Junction candidates: interior points where three or more cuts meet, each a single
+    candidate covering the cut slots of the corners its arms reach.  With ``needy`` (cut slots
+    no straight cut serves) only junctions that serve one of them are built: on a cut of a
+    needy slot, or with an arm to a corner that has one.
+
+    * An *X*: two cuts ``long`` (full rays, or rays whose own boundary end is unusable) from
+      different corners that cross at an angle ω with ω and 360° - ω both in [121°, 239°]
+      stop at the crossing, and each of the two angles is split by one more arm: to a corner in
+      view whose window admits it (serving that corner's cut too) or to the boundary at an
+      angle in [60.5°, 119.5°].
+    * A *Y*: a cut of ``long`` from corner a and a cut from another corner b placed so that
+      they meet at exactly 120° (the point on a's cut from which a and b are 120° apart), and a
+      third arm along the bisector of the remaining 240° to the boundary; all three angles
+      are exactly 120° (three angles at most 120° summing to 360° leave no other choice).
+
+    * A *hub along a cut*: a point of a cut of ``long`` at the fractions :data:`HUB_POSITIONS`
+      of its length, the cut running from its corner to the hub, with arms around the hub to
+      corners or to the boundary (:func:`_hubs_on_rays`).
+
+    Junction points keep the point gap from the boundary; the cheapest :data:`MAX_JUNCTIONS`
+    are returned."""
+    n = len(z)
+    gap = POINT_GAP * diam
+    m = LAYOUT_MARGIN
+    e_out = np.roll(z, -1) - z
+    wins = [_windows(float(t), i in exact) for i, t in enumerate(theta)]
+    corners = np.array([i for i in range(n) if wins[i]], dtype=np.int64)
+    if len(long) < 1 or len(corners) < 2:
+        return []
+    if needy is None:
+        needy = frozenset(s for r in long for s in r.slots)
+    mine = np.array([bool(set(r.slots) & needy) for r in long])  # cuts of needy slots
+    short = np.array(sorted({i for i, _ in needy}), dtype=np.int64)  # corners with one
+    # hubs along the cuts first: when time runs short they are the most useful
+    stars = _hubs_on_rays(
+        z, wins, e_out, corners, diam, [r for r, k in zip(long, mine) if k], rigid, deadline
+    )
+    P = np.array([z[r.start] for r in long], dtype=np.complex128)
+    Q = np.array([r.end for r in long], dtype=np.complex128)
+    D = Q - P
+    L = np.abs(D)
+    start = np.array([r.start for r in long])
+    # X: pairs of cuts crossing at an angle with both sides splittable by one arm
+    den = (np.conj(D[:, None]) * D[None, :]).imag
+    w = P[None, :] - P[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (np.conj(w) * D[None, :]).imag / den
+        t = (np.conj(w) * D[:, None]).imag / den
+        omega = np.degrees(np.angle(D[None, :] / D[:, None])) % 360.0
+    lo_w, hi_w = 2 * (ANGLE_MIN + m), 2 * (ANGLE_MAX - m)
+    ok = (
+        np.triu(np.ones((len(long), len(long)), dtype=bool), 1)
+        & (start[:, None] != start[None, :])
+        & (np.abs(den) > 1e-12 * L[:, None] * L[None, :])
+        & (s * L[:, None] > gap)
+        & ((1 - s) * L[:, None] > gap)
+        & (t * L[None, :] > gap)
+        & ((1 - t) * L[None, :] > gap)
+        & (omega >= lo_w)
+        & (omega <= hi_w)
+        & (mine[:, None] | mine[None, :])
+    )
+    ia, ib = np.nonzero(ok)
+    order = np.argsort(s[ia, ib] * L[ia] + t[ia, ib] * L[ib], kind="stable")
+    for k in order[:MAX_JUNCTION_PAIRS].tolist():
+        if time.perf_counter() > deadline:
+            break
+        a, b = int(ia[k]), int(ib[k])
+        ra, rb = long[a], long[b]
+        hub = complex(P[a] + s[a, b] * D[a])
+        if _boundary_dist(z, hub) < gap:
+            continue
+        arm_a = _Ray(
+            -1,
+            -ra.d,
+            complex(z[ra.start]),
+            -1,
+            0.0,
+            ra.start,
+            list(ra.slots),
+            1.0 + 0.2 * abs(hub - z[ra.start]) / diam,
+            -2,
+            -1,
+            abs(hub - z[ra.start]),
+            p0=hub,
+        )
+        arm_b = _Ray(
+            -1,
+            -rb.d,
+            complex(z[rb.start]),
+            -1,
+            0.0,
+            rb.start,
+            list(rb.slots),
+            1.0 + 0.2 * abs(hub - z[rb.start]) / diam,
+            -2,
+            -1,
+            abs(hub - z[rb.start]),
+            p0=hub,
+        )
+        da = math.degrees(math.atan2(-ra.d.imag, -ra.d.real))  # the arm back to a
+        om = float(omega[a, b])  # from the arm to a counter-clockwise to the arm to b
+        others = corners[(corners != ra.start) & (corners != rb.start)]
+        left = _arc_arms(z, wins, e_out, hub, da, om, others, diam, rigid, [ra.d, rb.d])
+        right = _arc_arms(
+            z, wins, e_out, hub, da + om, 360.0 - om, others, diam, rigid, [ra.d, rb.d]
+        )
+        for x in left[:2]:
+            for y in right[:2]:
+                if x.join >= 0 and x.join == y.join:
+                    continue
+                stars.append(_star([arm_a, x, arm_b, y], hub))
+        checkpoint()
+    # Y: a cut from a, and a cut from b meeting it at exactly 120°, one of them needy
+    for r, own in zip(long, mine.tolist()):
+        if time.perf_counter() > deadline:
+            break
+        cs = corners if own else short
+        wv = (z[cs] - z[r.start]) / r.d  # b in the frame of the cut (along +real)
+        ss = wv.real - np.abs(wv.imag) / math.sqrt(3.0)
+        good = (cs != r.start) & (ss > gap) & (ss < r.reach - gap) & (np.abs(wv.imag) > gap)
+        for b, sv in zip(cs[good].tolist(), ss[good].tolist()):
+            hub = complex(z[r.start] + sv * r.d)
+            if _boundary_dist(z, hub) < gap:
+                continue
+            arm_b = _corner_arm(z, wins, e_out, hub, b, diam)
+            if arm_b is None:
+                continue
+            ua = -r.d
+            third = -(ua + arm_b.d)  # the arms' unit vectors at 120° sum to zero
+            third /= abs(third)
+            arm_c = _free_arm(z, hub, third, diam, rigid)
+            if arm_c is None:
+                continue
+            arm_a = _Ray(
+                -1,
+                ua,
+                complex(z[r.start]),
+                -1,
+                0.0,
+                r.start,
+                list(r.slots),
+                1.0 + 0.2 * sv / diam,
+                -2,
+                -1,
+                sv,
+                p0=hub,
+            )
+            stars.append(_star([arm_a, arm_b, arm_c], hub, exact=True))
+        checkpoint()
+    stars.sort(key=lambda c: c.cost)
+    return stars[:MAX_JUNCTIONS]
+
+
 def _seg_cross(p1: complex, p2: complex, q1: complex, q2: complex) -> tuple[float, float] | None:
     """Parameters (s, t) of the crossing of segments p1p2 and q1q2 (None if they miss or are
     parallel)."""
@@ -403,13 +916,13 @@ def _pair_conflicts(z: NDArray[np.complex128], ra: _Ray, rb: _Ray, gap: float) -
             return True  # the same segment (a join seen from both ends)
         v = shared.pop()
         e = z[(v + 1) % len(z)] - z[v]
-        da = (ra.end - z[v]) if ra.start == v else (z[ra.start] - z[v])
-        db = (rb.end - z[v]) if rb.start == v else (z[rb.start] - z[v])
+        da = (ra.end - z[v]) if ra.start == v else (_p0(z, ra) - z[v])
+        db = (rb.end - z[v]) if rb.start == v else (_p0(z, rb) - z[v])
         pa = math.degrees(math.atan2((da / e).imag, (da / e).real)) % 360
         pb = math.degrees(math.atan2((db / e).imag, (db / e).real)) % 360
         lo, hi = sorted((pa, pb))
         return not ANGLE_MIN + m <= hi - lo <= ANGLE_MAX - m
-    pa_, qa, pb_, qb = z[ra.start], ra.end, z[rb.start], rb.end
+    pa_, qa, pb_, qb = _p0(z, ra), ra.end, _p0(z, rb), rb.end
     if abs(qa - qb) < gap:
         return True  # end points too close to each other
     x = _seg_cross(pa_, qa, pb_, qb)
@@ -423,17 +936,19 @@ def _pair_conflicts(z: NDArray[np.complex128], ra: _Ray, rb: _Ray, gap: float) -
     return abs((np.conj(da) * db).real) / (la * lb) > math.cos(math.radians(ANGLE_MIN + m))
 
 
-def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list[tuple[int, int]]:
-    """Pairs ``(a, b)``, a < b, of rays that may not both be chosen: they cross at an angle
-    outside [60.5°, 119.5°] or closer than the point gap to an end, end close together or one
-    ends close to the other, or they leave one corner with a part outside that range (the
+def _conflicts(z: NDArray[np.complex128], cands: list[_Ray], diam: float) -> list[tuple[int, int]]:
+    """Pairs ``(a, b)``, a < b, of candidate cuts that may not both be chosen: they cross at an
+    angle outside [60.5°, 119.5°] or closer than the point gap to an end, end close together or
+    one ends close to the other, or they leave one corner with a part outside that range (the
     rules of :func:`_pair_conflicts`; pairs sharing a corner are decided one by one, all others
-    at once in numpy, in blocks of rows)."""
+    at once in numpy, in blocks of rows).  A junction conflicts with a cut when one of its arms
+    does."""
     gap = POINT_GAP * diam
+    rays, owner = _segments(cands)
     nr = len(rays)
     if nr < 2:
         return []
-    P = np.array([z[r.start] for r in rays], dtype=np.complex128)
+    P = np.array([_p0(z, r) for r in rays], dtype=np.complex128)
     Q = np.array([r.end for r in rays], dtype=np.complex128)
     D = Q - P
     L = np.abs(D)
@@ -442,19 +957,19 @@ def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list
     base = np.array([r.base for r in rays])
     stop = np.array([r.stop for r in rays])
     cos_lo = math.cos(math.radians(ANGLE_MIN + LAYOUT_MARGIN))  # |cos| above: a bad angle
-    bad: list[tuple[int, int]] = []
     cols = np.arange(nr)
+    found: list[tuple[NDArray[np.int64], NDArray[np.int64]]] = []
     for lo in range(0, nr, 256):
         checkpoint()
         a = np.arange(lo, min(lo + 256, nr))[:, None]
-        upper = cols[None, :] > a
+        upper = (cols[None, :] > a) & (owner[None, :] != owner[a])
         tee = ((stop[a] >= 0) & (stop[a] == base[None, :])) | (
             (stop[None, :] >= 0) & (stop[None, :] == base[a])
         )
         ja, jb = join[a], join[None, :]
         sa, sb = start[a], start[None, :]
         share = (
-            (sa == sb)
+            ((sa >= 0) & (sa == sb))
             | ((jb >= 0) & (sa == jb))
             | ((ja >= 0) & (ja == sb))
             | ((ja >= 0) & (ja == jb))
@@ -486,13 +1001,59 @@ def _conflicts(z: NDArray[np.complex128], rays: list[_Ray], diam: float) -> list
         touch = (np.abs(Qa - (Pb + ua * Db)) < gap) | (np.abs(Qb - (Pa + ub * Da)) < gap)
         geo = close_ends | np.where(cross, near_x | steep, touch)
         res = upper & ~tee & ~share & geo
-        for i, j in zip(*np.nonzero(res)):
-            bad.append((int(a[i, 0]), int(j)))
-        for i, j in zip(*np.nonzero(upper & ~tee & share)):
-            ai, bj = int(a[i, 0]), int(j)
+        i, j = np.nonzero(res)
+        found.append((a[i, 0], j))
+        # pairs sharing a corner: one by one for cuts, at once for junction arms (many)
+        i, j = np.nonzero(upper & ~tee & share)
+        ia = a[i, 0]
+        arm = (start[ia] < 0) | (start[j] < 0)
+        si, sj = [], []
+        for ai, bj in zip(ia[~arm].tolist(), j[~arm].tolist()):
             if _pair_conflicts(z, rays[ai], rays[bj], gap):
-                bad.append((ai, bj))
-    return bad
+                si.append(ai)
+                sj.append(bj)
+        found.append((np.array(si, dtype=np.int64), np.array(sj, dtype=np.int64)))
+        if np.any(arm):
+            ia, ja = ia[arm], j[arm]
+            hit = _shared_corner_conflicts(z, P, Q, start, join, ia, ja)
+            found.append((ia[hit], ja[hit]))
+    oa = owner[np.concatenate([f[0] for f in found])]
+    ob = owner[np.concatenate([f[1] for f in found])]
+    if nr == len(cands):  # no junctions: the pairs as found
+        return list(zip(oa.tolist(), ob.tolist()))
+    # segments to candidates, each pair once
+    lo_, hi_ = np.minimum(oa, ob), np.maximum(oa, ob)
+    code = np.unique(lo_ * len(cands) + hi_)
+    return list(zip((code // len(cands)).tolist(), (code % len(cands)).tolist()))
+
+
+def _shared_corner_conflicts(
+    z: NDArray[np.complex128],
+    P: NDArray[np.complex128],
+    Q: NDArray[np.complex128],
+    start: NDArray[np.int64],
+    join: NDArray[np.int64],
+    ia: NDArray[np.int64],
+    ib: NDArray[np.int64],
+) -> NDArray[np.bool_]:
+    """For pairs ``(ia, ib)`` of segments (from ``P`` to ``Q``, leaving corner ``start`` or
+    -1, reaching corner ``join`` or -1) that share a corner: whether they conflict by the rule
+    of :func:`_pair_conflicts` (the same segment, or a part between them at that corner
+    outside [60.5°, 119.5°]), at once."""
+    m = LAYOUT_MARGIN
+    sa, ja, sb, jb = start[ia], join[ia], start[ib], join[ib]
+    ss = (sa >= 0) & (sa == sb)
+    sj = (jb >= 0) & (sa == jb)
+    js = (ja >= 0) & (ja == sb)
+    jj = (ja >= 0) & (ja == jb)
+    same = (ss & jj) | (sj & js)
+    v = np.where(ss | sj, sa, ja)
+    zv = z[v]
+    ev = z[(v + 1) % len(z)] - zv
+    da = np.where(sa == v, Q[ia] - zv, P[ia] - zv)
+    db = np.where(sb == v, Q[ib] - zv, P[ib] - zv)
+    diff = np.abs(np.degrees(np.angle(da / ev)) % 360.0 - np.degrees(np.angle(db / ev)) % 360.0)
+    return same | ~((diff >= ANGLE_MIN + m) & (diff <= ANGLE_MAX - m))
 
 
 def _point_seg_dist(p: complex, a: complex, b: complex) -> float:
@@ -508,7 +1069,12 @@ def _solve(
     bad: list[tuple[int, int]],
     nogoods: list[list[int]],
     seconds: float = SEARCH_SECONDS,
+    rel_gap: float | None = None,
 ) -> list[int] | None:
+    """The cheapest choice of candidate cuts: one per cut slot, no conflicting pair, every
+    T-junction on a chosen cut that reaches past it, no ``nogoods`` set in full; within
+    ``rel_gap`` of the optimum when given.  None if there is none (or none within
+    ``seconds``)."""
     nr = len(rays)
     sid = {s: k for k, s in enumerate(slots)}
     rows, cols = [], []
@@ -550,9 +1116,13 @@ def _solve(
         constraints=cons,
         integrality=np.ones(nr),
         bounds=Bounds(0, 1),
-        options={"time_limit": max(seconds, 0.1)},
+        options={"time_limit": max(seconds, 0.1)}
+        # (HiGHS's presolve spends a second on the dense rows of the junction search)
+        | ({} if rel_gap is None else {"mip_rel_gap": rel_gap, "presolve": False}),
     )
-    if res.status != 0 or res.x is None:
+    # with a gap, a layout found before the time ran out will do as well (status 1: the time
+    # limit was reached with a feasible solution)
+    if res.x is None or not (res.status == 0 or (rel_gap is not None and res.status == 1)):
         return None
     return [int(c) for c in np.nonzero(res.x > 0.5)[0]]
 
@@ -561,18 +1131,29 @@ def _solve(
 
 
 def _arrangement(
-    z: NDArray[np.complex128], rays: list[_Ray]
-) -> tuple[NDArray[np.complex128], list[NDArray[np.int64]], list[set[int]]]:
-    """Points and faces (CCW point-index cycles) of the polygon cut by the chosen rays, and
-    for every face the rays on its boundary."""
+    z: NDArray[np.complex128], cands: list[_Ray]
+) -> tuple[NDArray[np.complex128], list[NDArray[np.int64]], list[set[int]], list[int]]:
+    """Points and faces (CCW point-index cycles) of the polygon cut by the chosen candidate
+    cuts, for every face the candidates on its boundary, and the point indices of the hubs
+    of the chosen junctions whose three angles are exactly 120°."""
     n = len(z)
     pts: list[complex] = list(z)
+    rays, owner = _segments(cands)
+    # a junction's hub is a point of its own, where all its arms start
+    hub_of: dict[int, int] = {}
+    exact_hubs: list[int] = []
+    for k, c in enumerate(cands):
+        if c.hub is not None:
+            hub_of[k] = len(pts)
+            pts.append(c.hub)
+            if c.exact:
+                exact_hubs.append(hub_of[k])
     # points on every polygon edge (parameter, index) and on every ray
     on_edge: dict[int, list[tuple[float, int]]] = {
         j: [(0.0, j), (1.0, (j + 1) % n)] for j in range(n)
     }
     on_ray: list[list[tuple[float, int]]] = []
-    for r in rays:
+    for r, k in zip(rays, owner.tolist()):
         if r.join >= 0:
             end = r.join
         else:
@@ -580,8 +1161,8 @@ def _arrangement(
             pts.append(r.end)
             if r.edge >= 0:
                 on_edge[r.edge].append((r.u, end))
-        on_ray.append([(0.0, r.start), (1.0, end)])
-    by_base = {r.base: k for k, r in enumerate(rays)}
+        on_ray.append([(0.0, r.start if r.p0 is None else hub_of[k]), (1.0, end)])
+    by_base = {r.base: k for k, r in enumerate(rays) if r.base >= 0}
     for a, r in enumerate(rays):
         if r.stop >= 0:  # a T: the end point lies on the ray it stops at
             b = by_base[r.stop]
@@ -593,18 +1174,19 @@ def _arrangement(
     for a in range(len(rays)):
         for b in range(a + 1, len(rays)):
             ra, rb = rays[a], rays[b]
-            if {ra.start, ra.join} & {rb.start, rb.join} - {-1}:
+            if owner[a] == owner[b] or {ra.start, ra.join} & {rb.start, rb.join} - {-1}:
                 continue
             if ra.stop == rb.base or rb.stop == ra.base:
                 continue
-            x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
+            pa, pb = _p0(z, ra), _p0(z, rb)
+            x = _seg_cross(pa, ra.end, pb, rb.end)
             if x is None:
                 continue
             s, t = x
             if not (0 < s < 1 and 0 < t < 1):
                 continue
             k = len(pts)
-            pts.append(z[ra.start] + s * (ra.end - z[ra.start]))
+            pts.append(pa + s * (ra.end - pa))
             on_ray[a].append((s, k))
             on_ray[b].append((t, k))
     edges: set[tuple[int, int]] = set()
@@ -619,7 +1201,7 @@ def _arrangement(
         for u, v in pairwise(seq):
             edges.add((u, v))
             edges.add((v, u))
-            ray_of_edge[(u, v)] = ray_of_edge[(v, u)] = a
+            ray_of_edge[(u, v)] = ray_of_edge[(v, u)] = int(owner[a])
     P = np.array(pts, dtype=np.complex128)
     out: dict[int, list[int]] = {}
     for u, v in edges:
@@ -657,7 +1239,7 @@ def _arrangement(
         if area > 0:
             faces.append(c)
             face_rays.append(fr)
-    return P, faces, face_rays
+    return P, faces, face_rays, exact_hubs
 
 
 # --------------------------------------------------------------------------- centre splits
@@ -936,6 +1518,10 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     tip no longer forces one segment on every chord through a block reaching across the
     polygon.  If no layout with kites closes, the tips' blocks are kept whole instead.
 
+    Only when neither closes are cuts allowed to meet at *junctions* (interior points where
+    three or more cuts meet, :func:`_junctions`), with kites first, then with the tips' blocks
+    kept whole; the layouts that close without junctions are found as before.
+
     Args:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
         size: the block size the layout will be refined to (default
@@ -944,7 +1530,8 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     Returns:
         A :class:`BlockLayout` whose cells are convex, counter-clockwise, conforming, cover the
         polygon exactly and have every corner in [60.25°, 119.75°] except the polygon's own
-        corners below 60° (tips).
+        corners below 60° (tips) and corners built at exactly 60° or 120° (centres of triangle
+        and hexagon faces, the two sides of a kite's axis, three-arm junctions).
 
     Raises:
         BlockLayoutError: no set of cuts was found (the message says at which corners).
@@ -952,12 +1539,27 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
     z = np.asarray(polygon, dtype=np.complex128)
     theta = _angles_deg(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
+    h = default_block_size(z) if size is None else float(size)
     if len(tips):
-        h = default_block_size(z) if size is None else float(size)
         lay = _kite_layout(z, theta, tips, h)
         if lay is not None:
             return lay
-    return _cut_layout(z)
+    try:
+        return _cut_layout(z)
+    except BlockLayoutError as exc:
+        if "would be needed" in exc.args[0]:
+            raise
+        error = exc
+    # only where nothing else closes: cuts may meet at junctions (the layouts that closed
+    # without them stay as they were)
+    if len(tips):
+        lay = _kite_layout(z, theta, tips, h, junctions=True)
+        if lay is not None:
+            return lay
+    try:
+        return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True)
+    except BlockLayoutError:
+        raise error from None
 
 
 @dataclass(frozen=True)
@@ -973,13 +1575,31 @@ class _KiteCut:
     exact: frozenset[int] = frozenset()
 
 
+def _long(rays: list[_Ray], bare: list[_Ray]) -> list[_Ray]:
+    """The cuts that run from their corner to the boundary (full rays and ``bare`` ones whose
+    boundary end is unusable): the arms of junctions are taken from them."""
+    return [r for r in rays if r.join < 0 and r.stop < 0] + bare
+
+
 def _cut_layout(
-    z: NDArray[np.complex128], kites: _KiteCut = _KiteCut(), seconds: float = SEARCH_SECONDS
+    z: NDArray[np.complex128],
+    kites: _KiteCut = _KiteCut(),
+    seconds: float = SEARCH_SECONDS,
+    junctions: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
-    no cut ends inside a kite side and no split crosses a kite (:class:`_KiteCut`); the rounds
-    of the search stop after ``seconds``."""
+    no cut ends inside a kite side and no split crosses a kite (:class:`_KiteCut`).
+
+    The search runs in stages: straight cuts, then also cuts ending on other cuts
+    (T-junctions), each stage's rounds stopping after ``seconds``.  With ``junctions`` only
+    the stage with junctions of three or more cuts runs (:func:`_junctions`; cuts and
+    T-junctions are among its candidates), within ``seconds`` in all, and only where some
+    corner has no straight cut of its own to the boundary or the polygon has a reflex corner
+    and at most :data:`JUNCTION_ANY_SLOTS` cut slots: round outlines with many obtuse corners
+    are not helped by junctions in practice, and the search would only delay the collar that
+    closes them."""
+    deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
@@ -997,11 +1617,30 @@ def _cut_layout(
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
+    small = len(rays) + len(bare) <= MAX_RAYS_FOR_TEES
+    # junctions serve the cut slots no straight cut serves; where every slot has one, they are
+    # still tried on a polygon with few cuts and a reflex corner (an arrow with swept-back
+    # barbs), never on round outlines with many obtuse corners, which the collar closes
+    few = len(slots) <= JUNCTION_ANY_SLOTS and bool(np.any(theta > 180.0))
+    if junctions and not (small and (missing or few)):
+        raise BlockLayoutError("every corner has a straight cut of its own: no junction searched")
+    if junctions and not missing:
+        missing = list(slots)
     tee_rays: list[_Ray] | None = None
-    if missing and len(rays) + len(bare) <= MAX_RAYS_FOR_TEES:
+    stars: list[_Ray] = []
+    first = 0
+    if missing and small:
         # corners whose every cut meets the boundary badly may still end a cut on another one
         tee_rays = _t_variants(z, rays, diam, bare=bare)
         covered |= {s for r in tee_rays for s in r.slots}
+        first = 1
+        if junctions:  # ... or at a junction with other cuts
+            stars = _junctions(
+                z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline, frozenset(missing)
+            )
+            covered |= {s for r in stars for s in r.slots}
+            if not stars:  # the search would be the one that already failed
+                raise BlockLayoutError("no junction of three or more cuts fits in the polygon")
         missing = [s for s in slots if s not in covered]
     if missing:
         vs = sorted({i for i, _ in missing})
@@ -1017,16 +1656,29 @@ def _cut_layout(
     has_slot = np.zeros(n, dtype=bool)
     has_slot[[i for i, _ in slots]] = True
     problems: list[str] = []
-    for tees in (False, True):
-        if not tees and tee_rays is not None:
-            continue  # some corner has no cut of its own: only T-junctions can serve it
-        if tees and len(rays) + len(bare) > MAX_RAYS_FOR_TEES:
-            break
-        if tees and tee_rays is None:
+    for stage in [2] if junctions else range(first, (1 if small else 0) + 1):
+        if stage >= 1 and tee_rays is None:
             tee_rays = _t_variants(z, rays, diam, bare=bare)
-        pool = rays + (tee_rays if tees else [])
+        left = deadline - time.perf_counter()
+        if stage == 2 and left < MIN_JUNCTION_SECONDS:
+            problems.append("no time left for junctions")
+            break
+        pool = rays + (tee_rays if stage >= 1 else []) + stars
         checkpoint()
-        lay = _search(z, pool, slots, tips, tip_mask, has_slot, diam, problems, kites, seconds)
+        # with junctions the integer program is large: a layout close to the cheapest will do
+        lay = _search(
+            z,
+            pool,
+            slots,
+            tips,
+            tip_mask,
+            has_slot,
+            diam,
+            problems,
+            kites,
+            min(JUNCTION_SECONDS, left) if stage == 2 else seconds,
+            JUNCTION_GAP if stage == 2 else None,
+        )
         if lay is not None:
             return lay
     raise BlockLayoutError(
@@ -1064,12 +1716,17 @@ def _tip_kite(
 
 
 def _kite_layout(
-    z: NDArray[np.complex128], theta: NDArray[np.float64], tips: NDArray[np.int64], h: float
+    z: NDArray[np.complex128],
+    theta: NDArray[np.float64],
+    tips: NDArray[np.int64],
+    h: float,
+    junctions: bool = False,
 ) -> BlockLayout | None:
     """The layout of :func:`block_layout` with every tip cut off by a kite (:func:`_tip_kite`):
     the first that closes over the inner angles of :data:`KITE_INNER` and the kite sizes ``h``
     and ``h/2`` (each at most :data:`KITE_EDGE_SHARE` of the edges at the tip), within
-    :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``."""
+    :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``.
+    ``junctions``: search with junctions only (:func:`_cut_layout`)."""
     from shapely.geometry import Polygon as ShapelyPolygon
 
     n = len(z)
@@ -1125,6 +1782,7 @@ def _kite_layout(
                     zr,
                     _KiteCut(tuple(kites), frozenset(rigid), frozenset(exact)),
                     min(left, SEARCH_SECONDS),
+                    junctions,
                 )
             except BlockLayoutError as exc:
                 if "would be needed" in exc.args[0]:
@@ -1167,6 +1825,7 @@ def _renumber(
         angles=cell_angles(pts[cells]),
         kind=lay.kind,
         kites=True,
+        junctions=lay.junctions,
     )
 
 
@@ -1181,11 +1840,17 @@ def _search(
     problems: list[str],
     kites: _KiteCut = _KiteCut(),
     seconds: float = SEARCH_SECONDS,
+    rel_gap: float | None = None,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
-    ``kites`` and ``seconds`` as in :func:`_cut_layout`)."""
+    ``kites`` and ``seconds`` as in :func:`_cut_layout`, ``rel_gap`` as in :func:`_solve`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
+    if any(r.arms for r in rays):
+        # a junction and a cut for the same slot exclude each other already (one per slot):
+        # their conflicts would only make the integer program larger
+        sl = [frozenset(r.slots) for r in rays]
+        bad = [(a, b) for a, b in bad if not ((rays[a].arms or rays[b].arms) and sl[a] & sl[b])]
     checkpoint()
     if len(bad) > MAX_CONFLICTS:
         problems.append(f"{len(bad):,} pairs of candidate cuts conflict")
@@ -1197,17 +1862,18 @@ def _search(
         if left <= 0:
             problems.append(f"no layout within {seconds:.3g} s of search")
             return None
-        chosen = _solve(rays, slots, bad, nogoods, left) if slots else []
+        chosen = _solve(rays, slots, bad, nogoods, left, rel_gap) if slots else []
         checkpoint()
         if chosen is None:
             return None
         sel = [rays[c] for c in chosen]
-        P, faces_raw, face_rays = _arrangement(z, sel)
+        P, faces_raw, face_rays, hubs = _arrangement(z, sel)
         pm = np.zeros(len(P), dtype=bool)
         pm[tips] = True
         own = np.zeros(len(P), dtype=bool)
         own[:n] = ~has_slot & ~tip_mask
         own[list(kites.exact)] = True  # a kite's inner point: its two parts are exactly 120°
+        own[hubs] = True  # a junction of three arms: its angles are exactly 120°
         faces = []
         wrong = []
         for fi, f in enumerate(faces_raw):
@@ -1219,17 +1885,15 @@ def _search(
             ok = np.where(pm[f], a > 0, (a >= ANGLE_MIN + m) & (a <= ANGLE_MAX - m))
             if not np.all(ok) or len(f) > 6 or len(f) < 3:
                 wrong.append(fi)
-            elif kites.rigid and len(f) != 4 and _on_rigid(f, kites.rigid, n):
-                wrong.append(fi)  # its split would put a point on a kite side
+        whole: list[int] = []
+        if not wrong and kites.rigid:
+            # the chords through the kites stay whole: a split would put a point on a kite side
+            whole, wrong = _chord_faces(faces, kites.rigid, n)
         if not wrong:
             if all(len(f) == 4 for f in faces):
                 cells = np.array(faces, dtype=np.int64)
                 X, split = P, False
             else:
-                # a quad face on a kite side stays whole: a split would put a point there
-                whole = [
-                    k for k, f in enumerate(faces) if len(f) == 4 and _on_rigid(f, kites.rigid, n)
-                ]
                 rest = [k for k in range(len(faces)) if k not in whole]
                 X, cells, wrong = _split_cells(P, [faces[k] for k in rest], pm, own)
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
@@ -1261,15 +1925,16 @@ def _search(
                 return BlockLayout(
                     polygon=z,
                     points=X,
-                    cuts=np.array([[z[r.start], r.end] for r in sel], dtype=np.complex128).reshape(
-                        -1, 2
-                    ),
+                    cuts=np.array(
+                        [[_p0(z, r), r.end] for r in _segments(sel)[0]], dtype=np.complex128
+                    ).reshape(-1, 2),
                     faces=tuple(faces),
                     cells=cells,
                     tips=tips,
                     split=split,
                     rounds=rnd,
                     tees=sum(r.stop >= 0 for r in sel),
+                    junctions=sum(bool(r.arms) for r in sel),
                     angles=cell_angles(X[cells]),
                 )
         problems.append(f"{len(wrong)} face(s) could not be split into cells")
@@ -1284,12 +1949,38 @@ def _search(
     return None
 
 
-def _on_rigid(f: NDArray[np.int64], rigid: frozenset[int], n: int) -> bool:
-    """Whether the face ``f`` (point indices) has a side on a rigid polygon edge ``j -> j+1``."""
-    return any(
-        u < n and v < n and (v - u) % n == 1 and u in rigid
-        for u, v in zip(f.tolist(), np.roll(f, -1).tolist())
-    )
+def _chord_faces(
+    faces: list[NDArray[np.int64]], rigid: frozenset[int], n: int
+) -> tuple[list[int], list[int]]:
+    """The faces on the chords through the kites: from each face on a kite side (a ``rigid``
+    polygon edge ``j -> j+1``) across the side opposite to the one it was entered by, until
+    the boundary.  Returns ``(whole, wrong)``: the quad faces met, which must stay whole (a
+    split would put a point on a chord side, and the splits that remove it would reach the
+    kite), and the other faces met, which cannot."""
+    by_side: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    todo: list[tuple[int, int]] = []
+    for k, f in enumerate(faces):
+        fl = f.tolist()
+        for p, (u, v) in enumerate(zip(fl, fl[1:] + fl[:1])):
+            by_side.setdefault((min(u, v), max(u, v)), []).append((k, p))
+            if u < n and v < n and (v - u) % n == 1 and u in rigid:
+                todo.append((k, p))
+    whole: set[int] = set()
+    wrong: set[int] = set()
+    seen: set[tuple[int, int]] = set()
+    while todo:
+        k, p = todo.pop()
+        f = faces[k]
+        if len(f) != 4:
+            wrong.add(k)
+            continue
+        if (k, p % 2) in seen:
+            continue
+        seen.add((k, p % 2))
+        whole.add(k)
+        u, v = int(f[(p + 2) % 4]), int(f[(p + 3) % 4])
+        todo.extend(q for q in by_side.get((min(u, v), max(u, v)), []) if q[0] != k)
+    return sorted(whole), sorted(wrong)
 
 
 def mesh_blocks(

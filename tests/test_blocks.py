@@ -28,8 +28,36 @@ from quadmesh.thin.corridor import mesh_corridor
 from tests.test_strict import independent_check
 
 L_SHAPE = np.array([[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]], dtype=float)
-#: an isosceles triangle with two 10° corners and a 160° apex: no block layout closes
+#: an isosceles triangle with two 10° corners and a 160° apex: the axes of the two tip kites
+#: and the apex's cut meet at one interior point (a junction of four cuts)
 TWO_TIPS = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, 0.5 * np.tan(np.radians(10.0))]])
+#: an arrow: a shaft 0.6 x 0.3 and a triangular head with a 55° tip and a straight back (two
+#: 270° corners where the shaft meets it, the head's back corners 62.5°); the 270° corners'
+#: cuts into the head meet its slanted sides at less than 60°, so they end at junctions
+ARROW = np.array(
+    [
+        [0.0, 0.35],
+        [0.6, 0.35],
+        [0.6, 0.0],
+        [0.6 + 0.5 / np.tan(np.radians(27.5)), 0.5],
+        [0.6, 1.0],
+        [0.6, 0.65],
+        [0.0, 0.65],
+    ]
+)
+#: the arrow with its barbs swept back (46.6° barbs, 286° corners at the shaft): closes only
+#: with a junction, although every corner has a straight cut of its own
+BARBED_ARROW = np.array(
+    [
+        [0.0, 0.35],
+        [0.6, 0.35],
+        [0.5, 0.0],
+        [0.5 + 0.5 / np.tan(np.radians(27.5)), 0.5],
+        [0.5, 1.0],
+        [0.6, 0.65],
+        [0.0, 0.65],
+    ]
+)
 
 #: bundled examples whose block layout closes (no fallback), with their coarse block counts
 CLOSING = {
@@ -169,8 +197,132 @@ def test_tip_kite_corners_for_every_tip_angle(theta: float) -> None:
         assert abs(A - 0.5) < 1e-12 and abs(B - 0.5 * np.exp(1j * t)) < 1e-12
 
 
+#: a four-pointed star (30.1° points, 239.9° corners between them): no block layout, ladder or
+#: collar closes
+FOUR_STAR = np.column_stack(
+    [
+        np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.cos(np.pi / 2 + np.pi * np.arange(8) / 4),
+        np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.sin(np.pi / 2 + np.pi * np.arange(8) / 4),
+    ]
+)
+
+
+def _plain_angles(v: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(Q, 4) corner angles in degrees of quads ``q`` over (V, 2) points ``v``, in plain numpy
+    (each corner from its two edge vectors), and whether every quad turns left at every
+    corner."""
+    c = v[q]
+    into = c - np.roll(c, 1, axis=1)  # edge arriving at each corner
+    out = np.roll(c, -1, axis=1) - c  # edge leaving it
+    cross = into[..., 0] * out[..., 1] - into[..., 1] * out[..., 0]
+    dot = into[..., 0] * out[..., 0] + into[..., 1] * out[..., 1]
+    assert np.all(cross > 0), "a quad is clockwise or not strictly convex"
+    return 180.0 - np.degrees(np.arctan2(cross, dot))
+
+
+@pytest.mark.parametrize(
+    ("name", "verts"), [("arrow", ARROW), ("barbed_arrow", BARBED_ARROW), ("two_tips", TWO_TIPS)]
+)
+def test_junctions_close_the_arrow_and_the_two_tip_triangle(name, verts, tmp_path) -> None:
+    """Layouts that need an interior point where three or four cuts meet: the arrow (the cuts
+    from the 270° corners end at junctions in the head), the arrow with swept-back barbs, and
+    the isosceles triangle with two 10° tips (both kites' axes and the apex's cut meet at one
+    point).  All close without the
+    paper's construction; every angle of the mesh, computed here from the returned
+    coordinates, is in [60°, 120°] but the polygon's own corners below 60°, each in one quad
+    with its own angle; the written file passes the independent check."""
+    res = mesh_polygon(verts, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks is not None and res.blocks.kind == "cuts"
+    assert res.blocks.junctions >= 1 and res.verification.ok
+    v, q = res.mesh.vertices, res.mesh.quads
+    ang = _plain_angles(v, q)
+    # the polygon's corners below 60°: each in exactly one quad, with the polygon's angle
+    pv = np.asarray(verts, dtype=float)
+    e_in = pv - np.roll(pv, 1, axis=0)
+    e_out = np.roll(pv, -1, axis=0) - pv
+    own = 180.0 - np.degrees(
+        np.arctan2(
+            e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0],
+            e_in[:, 0] * e_out[:, 0] + e_in[:, 1] * e_out[:, 1],
+        )
+    )
+    tips = np.nonzero(own < 60.0)[0]
+    at_tip = np.zeros(q.shape, dtype=bool)
+    for i in tips:
+        k = int(np.argmin(np.linalg.norm(v - pv[i], axis=1)))
+        assert np.linalg.norm(v[k] - pv[i]) < 1e-12
+        hit = q == k
+        assert hit.sum() == 1
+        np.testing.assert_allclose(ang[hit], own[i], atol=1e-9)
+        at_tip |= hit
+    assert np.all(ang[~at_tip] >= 60.0 - 1e-9) and np.all(ang[~at_tip] <= 120.0 + 1e-9)
+    # few quads at the default size
+    assert res.mesh.n_quads <= 40 * len(verts)
+    src = tmp_path / f"{name}_in.json"
+    src.write_text(json.dumps({"vertices": pv.tolist()}))
+    out = tmp_path / f"{name}.json"
+    assert cli_main(["mesh", str(src), "-o", str(out), "--method", "blocks"]) == 0
+    got = independent_check(out, pv, angle_tol=1e-9)
+    assert got["n_quads"] == res.mesh.n_quads
+
+
+def test_hub_arms_are_chosen_with_every_angle_in_range() -> None:
+    """Around a hub the cheapest choice of arms has every angle between neighbours in
+    [60.5°, 119.5°] (or exactly 120°), the first arm always taken; with no such choice there is
+    none."""
+    from quadmesh.blocks import _cycle, _Ray
+
+    def arm(cost: float) -> _Ray:
+        return _Ray(-1, 1 + 0j, 1 + 0j, -1, 0.0, -1, [], cost)
+
+    rng = np.random.default_rng(7)
+    found = 0
+    for _ in range(200):
+        angles = np.sort(rng.uniform(1.0, 359.0, rng.integers(2, 12)))
+        arms = [(0.0, arm(1.0))] + [
+            (float(a), arm(float(c))) for a, c in zip(angles, rng.uniform(0.1, 2, len(angles)))
+        ]
+        got = _cycle(arms)
+        by_id = {id(r): a for a, r in arms}
+        if got is None:
+            continue
+        assert got[0] is arms[0][1]
+        chosen = np.array([by_id[id(r)] for r in got])
+        gaps = np.diff(np.append(chosen, 360.0))
+        ok = ((gaps >= 60.5) & (gaps <= 119.5)) | (np.abs(gaps - 120.0) < 1e-9)
+        assert np.all(ok) and len(got) >= 3
+        found += 1
+    assert found >= 20  # the random turns do leave choices (48 of 200 with this seed)
+    # exactly 120° apart: a Y; 130° apart leaves no choice
+    y = [(0.0, arm(1.0)), (120.0, arm(1.0)), (240.0, arm(1.0)), (200.0, arm(0.1))]
+    assert [id(r) for r in _cycle(y)] == [id(y[k][1]) for k in range(3)]
+    assert _cycle([(0.0, arm(1.0)), (130.0, arm(1.0)), (260.0, arm(1.0))]) is None
+
+
+def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
+    """The two-tip triangle's layout: both tips in kites, the kites' axes and the apex's cut
+    meeting at one interior point with the fourth cut running to the base; all six cells have
+    their new corners in [60°, 120°]."""
+    lay = block_layout(_z(TWO_TIPS))
+    assert lay.kites and lay.junctions == 1 and lay.n_cells == 6
+    is_tip = np.isin(lay.cells, lay.tips)
+    assert np.all(lay.angles[~is_tip] >= 60.0 - 1e-9) and np.all(lay.angles <= 120.0 + 1e-9)
+    # the junction: the one layout point inside the triangle shared by four cells
+    cnt = np.bincount(lay.cells.ravel(), minlength=len(lay.points))
+    inner = [
+        k
+        for k in np.nonzero(cnt == 4)[0]
+        if lay.points[k].imag > 1e-9 and abs(lay.points[k] - lay.polygon[2]) > 1e-9
+    ]
+    assert len(inner) == 1
+    # on both tips' bisectors (5° from the base at each end)
+    p = lay.points[inner[0]]
+    assert abs(np.degrees(np.angle(p)) - 5.0) < 1e-6
+    assert abs(np.degrees(np.angle(1.0 - p.conjugate())) - 5.0) < 1e-6
+
+
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
-    res = mesh_polygon(TWO_TIPS, MeshOptions(method="blocks"))  # no cuts, ladder, collar
+    res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
     assert res.pieces and res.verification.ok
@@ -266,7 +418,7 @@ def test_benchmark_reports_block_closure() -> None:
     from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
 
     ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
-    fb = _mesh_vertices(TWO_TIPS, MeshOptions(method="blocks"))
+    fb = _mesh_vertices(FOUR_STAR, MeshOptions(method="blocks"))
     assert ok["status"] == fb["status"] == "meshed"
     assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
     base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
@@ -309,6 +461,61 @@ def test_vectorised_conflicts_match_the_pair_rule(name: str) -> None:
         if _pair_conflicts(z, rays[a], rays[b], POINT_GAP * d)
     }
     assert got == want and len(want) > 0
+
+
+def test_vectorised_conflicts_of_junctions_match_the_pair_rule() -> None:
+    """With junction candidates (several arms each) the all-pairs numpy test agrees with the
+    one-pair rule applied to every pair of their segments: two candidates conflict when any
+    arm of one conflicts with any arm (or the cut) of the other."""
+    from quadmesh.blocks import (
+        POINT_GAP,
+        _angles_deg,
+        _candidates,
+        _conflicts,
+        _junctions,
+        _long,
+        _p0,
+        _pair_conflicts,
+        _scale,
+    )
+
+    z = _z(ARROW)
+    d = _scale(z)
+    theta = _angles_deg(z)
+    bare: list = []
+    rays = _candidates(z, theta, d, bare)
+    stars = _junctions(z, theta, d, _long(rays, bare))
+    assert len(stars) > 10 and {len(s.arms) for s in stars} >= {3, 4}
+    cands = rays[::4] + stars[:: max(1, len(stars) // 60)]
+    got = set(_conflicts(z, cands, d))
+
+    def segs(c):
+        return c.arms if c.arms else (c,)
+
+    want = {
+        (a, b)
+        for a in range(len(cands))
+        for b in range(a + 1, len(cands))
+        if any(
+            _pair_conflicts(z, sa, sb, POINT_GAP * d)
+            for sa in segs(cands[a])
+            for sb in segs(cands[b])
+        )
+    }
+    assert len(want) > 0
+
+    def on_the_limit(a: int, b: int) -> bool:
+        """Two segments cross at 60.5° up to the last bit (an arm of a junction built at
+        exactly 120° from a cut sampled at its window's edge): both answers are right."""
+        lim = np.cos(np.radians(60.5))
+        for sa in segs(cands[a]):
+            for sb in segs(cands[b]):
+                da, db = sa.end - _p0(z, sa), sb.end - _p0(z, sb)
+                if abs(abs((np.conj(da) * db).real) / abs(da) / abs(db) - lim) < 1e-12:
+                    return True
+        return False
+
+    assert all(on_the_limit(a, b) for a, b in got ^ want)
 
 
 @pytest.mark.parametrize(
