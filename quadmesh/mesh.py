@@ -111,18 +111,228 @@ SIZE_FLOOR = 1e-3
 SIZE_WARN = 1.0 / 50.0
 
 
-def _segment_distance(x: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """Distance from complex points ``x`` to the segments [p0, p1] (elementwise)."""
-    d = p1 - p0
-    dd = (d * np.conj(d)).real
-    w = x - p0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(dd > 0, (w * np.conj(d)).real / dd, 0.0)
-    return np.abs(w - np.clip(t, 0.0, 1.0) * d)
-
-
-#: Points per chunk of :func:`local_feature_size` (about 0.3 s each).
+#: Points per chunk of :func:`local_feature_size` (a fraction of a second each).
 _LFS_CHUNK = 100_000
+
+#: Nearest items (corners and side pieces, :class:`_FeatureIndex`) asked for per point.
+_LFS_K = 12
+
+#: A piece of a side is at most ``2 * _LFS_GRADE`` times the local feature size at its
+#: midpoint long (:class:`_FeatureIndex`).
+_LFS_GRADE = 0.5
+
+
+class _FeatureIndex:
+    """The corners and the sides of a polygon, indexed for the nearest features of points.
+
+    A :class:`scipy.spatial.cKDTree` holds the n corners and the midpoints of pieces of the
+    sides. The pieces are graded: a side is halved until every piece is at most 2c times
+    the local feature size at its midpoint long (c = :data:`_LFS_GRADE`; a few pieces per
+    side on most polygons, more along narrow corridors and near tiny features; at most
+    16n + 4096 pieces, the pieces left longer are remembered). For a point x and its K
+    nearest items, the K-th at distance m_K, a corner that is not among them is at least m_K
+    from x, and a side none of whose pieces is among them is at least
+
+    * ``(1 − c)·m_K − c·lfs(x)`` from x when its pieces are graded: a piece is within half
+      its length ℓ of its midpoint p, and ℓ/2 ≤ c·lfs(p) ≤ c·(lfs(x) + |x − p|) (lfs is
+      1-Lipschitz); any upper bound of lfs(x) may stand in for it;
+    * ``m_K − ℓ_max/2`` in any case, ℓ_max the longest piece.
+
+    For the points that this does not settle, :meth:`exact` finds the sides within the
+    second-nearest corner distance with a :class:`shapely.STRtree` of the sides."""
+
+    def __init__(self, poly: Polygon) -> None:
+        import shapely
+        from scipy.spatial import cKDTree
+
+        v = poly.vertices
+        self.corners = cKDTree(v)
+        self.sides = shapely.STRtree(shapely.linestrings(np.stack([v, np.roll(v, -1, 0)], 1)))
+        self.n = n = poly.n
+        self.p0 = pz = poly.z
+        d = np.roll(pz, -1) - pz
+        # the sides as reals, for side_distance
+        self.ax, self.ay = pz.real.copy(), pz.imag.copy()
+        self.dx, self.dy = d.real.copy(), d.imag.copy()
+        self.dd = self.dx * self.dx + self.dy * self.dy
+        length = np.abs(d)
+        # absolute slack on the bounds for the rounding of coordinates and tree distances
+        self.slack = 1e-12 * (float(np.abs(pz).max()) + float(length.max()))
+        # graded pieces [t0, t0 + dt] of the sides, halved until short enough
+        side, t0, dt = np.arange(n), np.zeros(n), np.ones(n)
+        graded = np.zeros(n, dtype=bool)
+        cap = 16 * n + 4096
+        while True:
+            j = np.flatnonzero(~graded)
+            mid = pz[side[j]] + (t0[j] + 0.5 * dt[j]) * d[side[j]]
+            lfs = self._exact_lfs(mid)
+            graded[j] = dt[j] * length[side[j]] <= 2 * _LFS_GRADE * lfs * (1 - 1e-9)
+            j = j[~graded[j]]
+            if j.size == 0 or side.size + j.size > cap:
+                break
+            dt[j] *= 0.5
+            side, t0, dt = np.r_[side, side[j]], np.r_[t0, t0[j] + dt[j]], np.r_[dt, dt[j]]
+            graded = np.r_[graded, np.zeros(j.size, dtype=bool)]
+        piece = dt * length[side]
+        self.h_max = float(piece.max())
+        self.h_ungraded = float(piece[~graded].max()) if not graded.all() else 0.0
+        mid = pz[side] + (t0 + 0.5 * dt) * d[side]
+        # item i < n is corner i (and stands for side i too), item n + j is piece j
+        self.item_side = np.r_[np.arange(n), side]
+        self.tree = cKDTree(np.r_[v, np.column_stack([mid.real, mid.imag])])
+
+    def bound(self, m_k: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """Distance below which every corner and side is among the candidates of a query
+        whose K-th item is at ``m_k``, given upper bounds ``f`` of lfs at the points."""
+        c = _LFS_GRADE
+        with np.errstate(invalid="ignore"):  # inf - inf where f is inf: the other bound
+            out = np.fmax((1 - c) * m_k - c * f, m_k - 0.5 * self.h_max)
+        if self.h_ungraded:
+            out = np.minimum(out, m_k - 0.5 * self.h_ungraded)
+        out -= self.slack + 1e-12 * np.where(np.isinf(m_k), 0.0, m_k)
+        return out
+
+    def side_distance(self, x: np.ndarray, sid: np.ndarray) -> np.ndarray:
+        """(m, k) distances from the points ``x`` (m,) to the sides ``sid`` (m, k)."""
+        wx = x.real[:, None] - self.ax[sid]
+        wy = x.imag[:, None] - self.ay[sid]
+        sx, sy = self.dx[sid], self.dy[sid]
+        # the parameter of the nearest point of the side's line, clipped to the side
+        t = wx * sx
+        t += wy * sy
+        t /= self.dd[sid]
+        np.clip(t, 0.0, 1.0, out=t)
+        sx *= t
+        sy *= t
+        wx -= sx
+        wy -= sy
+        return np.hypot(wx, wy, out=wx)
+
+    def nearest(
+        self, x: np.ndarray, xy: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The three nearest corners and sides of each point among its :data:`_LFS_K`
+        nearest items.
+
+        Returns:
+            ``(dv, iv, sid, sd, m_k)``: corner distances and indices (m, 3), side indices
+            and distances (m, 3), all ascending, an empty slot at distance inf (index -1 for
+            a corner), and (m,) the distance of the K-th item (inf: every item was found),
+            for :meth:`bound`.
+        """
+        n_items = self.item_side.size
+        k = min(max(_LFS_K, 3), n_items)
+        dist, found = self.tree.query(xy, k=k)
+        m_k = np.full(x.size, np.inf) if k == n_items else dist[:, -1]
+        # the items come in distance order: the first three corners are the nearest
+        corner = found < self.n
+        pick = np.argsort(~corner, axis=1, kind="stable")[:, :3]
+        hit = np.take_along_axis(corner, pick, axis=1)
+        dv = np.where(hit, np.take_along_axis(dist, pick, axis=1), np.inf)
+        iv = np.where(hit, np.take_along_axis(found, pick, axis=1), -1)
+        sid = np.sort(self.item_side[found], axis=1)
+        sd = self.side_distance(x, sid)
+        # a side met by several items counts once (its copies are adjacent once sorted)
+        sd[:, 1:][sid[:, 1:] == sid[:, :-1]] = np.inf
+        top = np.argpartition(sd, 2, axis=1)[:, :3]
+        sd = np.take_along_axis(sd, top, axis=1)
+        order = np.argsort(sd, axis=1, kind="stable")
+        sid = np.take_along_axis(np.take_along_axis(sid, top, axis=1), order, axis=1)
+        return dv, iv, sid, np.take_along_axis(sd, order, axis=1), m_k
+
+    def exact(
+        self, x: np.ndarray, xy: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The three nearest corners and the three nearest sides within the second-nearest
+        corner distance r (lfs ≤ r: farther sides do not matter), for any point.
+
+        Returns:
+            ``(dv, iv, sid, sd)`` as :meth:`nearest` gives them.
+        """
+        import shapely
+
+        n, m = self.n, x.size
+        dv, iv = self.corners.query(xy, k=3)
+        ii, jj = self.sides.query(
+            shapely.points(xy[:, 0], xy[:, 1]), predicate="dwithin", distance=dv[:, 1]
+        )
+        # the two sides at the nearest corner are within r whatever the rounding
+        key = np.unique(
+            np.r_[ii * n + jj, np.arange(m) * n + iv[:, 0], np.arange(m) * n + (iv[:, 0] - 1) % n]
+        )
+        ii, jj = key // n, key % n
+        dist = self.side_distance(x[ii], jj[:, None])[:, 0]
+        order = np.lexsort((dist, ii))
+        ii, jj, dist = ii[order], jj[order], dist[order]
+        rank = np.arange(ii.size) - np.searchsorted(ii, np.arange(m))[ii]
+        top = rank < 3
+        sid = np.full((m, 3), -1, dtype=np.int64)
+        sd = np.full((m, 3), np.inf)
+        sid[ii[top], rank[top]] = jj[top]
+        sd[ii[top], rank[top]] = dist[top]
+        return dv, iv, sid, sd
+
+    def _exact_lfs(self, x: np.ndarray) -> np.ndarray:
+        """Local feature size at the points ``x`` through :meth:`exact` alone."""
+        dv, iv, sid, sd = self.exact(x, np.column_stack([x.real, x.imag]))
+        return _lfs_from_features(x, self.p0, dv, iv, sid, sd)
+
+
+def _lfs_from_features(
+    x: np.ndarray,
+    pz: np.ndarray,
+    dv: np.ndarray,
+    iv: np.ndarray,
+    sid: np.ndarray,
+    sd: np.ndarray,
+) -> np.ndarray:
+    """Local feature size from the three nearest corners (distances ``dv``, indices ``iv``)
+    and the three nearest sides (``sid``, ``sd``, ascending; a slot with ``sd`` = inf is
+    empty) of each point ``x`` of the polygon with corners ``pz``.
+
+    The smallest disk about x meeting two non-incident features meets them at its boundary;
+    a disk meeting no non-incident pair meets at most one corner and two sides, so the pairs
+    that matter are: the two nearest corners; a corner and the nearest side s1 when the
+    corner is not an end of s1; two non-adjacent sides among the three nearest; an end e of
+    s1 and the nearest of the three sides that does not end at e (every other corner-side
+    pair is dominated by one of these)."""
+    n = pz.size
+    ok = np.isfinite(sd)
+
+    def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        k = (a - b) % n
+        return (k == 0) | (k == 1) | (k == n - 1)
+
+    s1 = sid[:, 0]  # the nearest side (the first slot is never empty)
+    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
+    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
+    out = np.minimum(dv[:, 1], np.where(ends1, np.inf, dv).min(axis=1))
+    # side-side pairs: the best is among the three nearest sides
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
+        out = np.where(pair, np.minimum(out, sd[:, b]), out)
+    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
+    # three nearest sides; other corner-side pairs are dominated by the ones above
+    for e in (s1, (s1 + 1) % n):
+        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
+        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
+        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
+    return out
+
+
+def _lfs_chunk(index: _FeatureIndex, x: np.ndarray) -> np.ndarray:
+    """:func:`local_feature_size` of the points ``x`` (complex) with a built index."""
+    xy = np.column_stack([x.real, x.imag])
+    dv, iv, sid, sd, m_k = index.nearest(x, xy)
+    out = _lfs_from_features(x, index.p0, dv, iv, sid, sd)
+    # ``out`` is an upper bound of lfs (each term is the larger distance of a non-incident
+    # pair); the candidates may miss a corner or a side at ``bound`` or beyond, but every
+    # term that would change is at least ``bound``: a value below it is exact
+    left = np.flatnonzero(~(out < index.bound(m_k, out)))
+    if left.size:
+        dv, iv, sid, sd = index.exact(x[left], xy[left])
+        out[left] = _lfs_from_features(x[left], index.p0, dv, iv, sid, sd)
+    return out
 
 
 def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
@@ -140,10 +350,15 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
 
     Computed exactly (up to float64 rounding of the distances): a disk that meets no
     non-incident pair meets at most one corner and two sides, so only the three nearest
-    corners (:class:`scipy.spatial.cKDTree`) and the three nearest sides matter; lfs is at
-    most the distance to the second-nearest corner, so the sides are the three nearest of
-    those within that distance (one :class:`shapely.STRtree` ``dwithin`` query). Vectorised:
-    about a second per 300 000 points on one core.
+    corners and the three nearest sides matter (:func:`_lfs_from_features`). They are
+    looked for among the 12 nearest corners and midpoints of graded side pieces in one
+    :class:`scipy.spatial.cKDTree` query (:class:`_FeatureIndex`); the answer is exact when
+    it is below the distance beyond which the query can have missed a feature (a missed
+    feature only changes terms at least that large). The points this leaves open (a few per
+    thousand on the meshes of large polygons; more on polygons of a handful of corners,
+    where it is cheap) take the exact search: the sides within the second-nearest corner
+    distance, which bounds lfs, from a :class:`shapely.STRtree`. Vectorised, in chunks of
+    :data:`_LFS_CHUNK` points.
 
     Args:
         polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
@@ -152,9 +367,6 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     Returns:
         (N,) float64 array of local feature sizes.
     """
-    import shapely
-    from scipy.spatial import cKDTree
-
     poly = polygon if isinstance(polygon, Polygon) else validate_polygon(polygon)
     pts = np.asarray(points)
     if np.iscomplexobj(pts):
@@ -165,55 +377,13 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     m = x.size
     if m == 0:
         return np.zeros(0)
-    if m > _LFS_CHUNK:
-        # in chunks, so that a run's progress moves and Cancel is heard (quadmesh.progress)
-        out = np.empty(m)
-        for i in range(0, m, _LFS_CHUNK):
-            out[i : i + _LFS_CHUNK] = local_feature_size(poly, x[i : i + _LFS_CHUNK])
-            checkpoint((i + _LFS_CHUNK) / m)
-        return out
-    pz = poly.z
-    n = poly.n
-    p1 = np.roll(pz, -1)
-
-    # corners: the three nearest; two distinct corners are never incident, so the
-    # second-nearest corner distance r bounds lfs from above: only features within r matter
-    dv, iv = cKDTree(poly.vertices).query(np.column_stack([x.real, x.imag]), k=min(3, n))
-    r = dv[:, 1]
-    sides = shapely.linestrings(np.stack([poly.vertices, np.roll(poly.vertices, -1, axis=0)], 1))
-    ii, jj = shapely.STRtree(sides).query(
-        shapely.points(x.real, x.imag), predicate="dwithin", distance=r
-    )
-    dist = _segment_distance(x[ii], pz[jj], p1[jj])
-    order = np.lexsort((dist, ii))
-    ii, jj, dist = ii[order], jj[order], dist[order]
-    rank = np.arange(ii.size) - np.searchsorted(ii, np.arange(m))[ii]
-    top = rank < 3
-    sid = np.full((m, 3), -1, dtype=np.int64)  # the three nearest sides (-1: none within r)
-    sd = np.full((m, 3), np.inf)
-    sid[ii[top], rank[top]] = jj[top]
-    sd[ii[top], rank[top]] = dist[top]
-    ok = sid >= 0
-
-    def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        k = (a - b) % n
-        return (k == 0) | (k == 1) | (k == n - 1)
-
-    # the nearest side s1 lies within r (the sides at the nearest corner do)
-    s1 = np.where(ok[:, 0], sid[:, 0], iv[:, 0])
-    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
-    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
-    out = np.minimum(r, np.where(ends1, np.inf, dv).min(axis=1))
-    # side-side pairs: the best is among the three nearest sides
-    for a, b in ((0, 1), (0, 2), (1, 2)):
-        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
-        out = np.where(pair, np.minimum(out, sd[:, b]), out)
-    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
-    # three nearest sides; other corner-side pairs are dominated by the ones above
-    for e in (s1, (s1 + 1) % n):
-        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
-        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
-        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
+    index = _FeatureIndex(poly)
+    out = np.empty(m)
+    # in chunks, so that a run's progress moves and Cancel is heard (quadmesh.progress)
+    for i in range(0, m, _LFS_CHUNK):
+        out[i : i + _LFS_CHUNK] = _lfs_chunk(index, x[i : i + _LFS_CHUNK])
+        if m > _LFS_CHUNK:
+            checkpoint(min(1.0, (i + _LFS_CHUNK) / m))
     return out
 
 

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import shapely
 
+from quadmesh import mesh as mesh_module
 from quadmesh.benchmark import format_family_table, smooth_star, summarise_families
 from quadmesh.cli import EXIT_OK, main
 from quadmesh.io import write_mesh, write_polygon
@@ -88,6 +89,106 @@ def test_lfs_matches_the_definition(vertices):
     np.testing.assert_allclose(got, want, rtol=1e-12)
     # (N, 2) reals and complex points give the same
     np.testing.assert_array_equal(local_feature_size(vertices, np.c_[x.real, x.imag]), got)
+
+
+def feature_distances(vertices: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(P, 2n) distances from the points to every corner, then to every side."""
+    z = vertices[:, 0] + 1j * vertices[:, 1]
+    a, b = z[None, :], np.roll(z, -1)[None, :]
+    p = x[:, None]
+    t = np.clip(((p - a) * np.conj(b - a)).real / np.abs(b - a) ** 2, 0, 1)
+    return np.c_[np.abs(p - a), np.abs(p - a - t * (b - a))]
+
+
+def brute_lfs_vectorised(vertices: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The definition again, for larger cases: over every pair of non-incident features
+    (corner i with corner j ≠ i, corner i with a side not ending at i, sides that share no
+    corner), the smallest of the larger distance."""
+    n = vertices.shape[0]
+    k = np.arange(n)
+    cc = k[:, None] != k[None, :]
+    cs = (k[None, :] != k[:, None]) & ((k[None, :] + 1) % n != k[:, None])  # corner i, side j
+    gap = (k[:, None] - k[None, :]) % n
+    ss = (gap != 0) & (gap != 1) & (gap != n - 1)
+    ok = np.block([[cc, cs], [cs.T, ss]])
+    out = np.empty(x.size)
+    for i in range(0, x.size, 200):
+        d = feature_distances(vertices, x[i : i + 200])
+        pair = np.maximum(d[:, :, None], d[:, None, :])
+        out[i : i + 200] = np.where(ok, pair, np.inf).min(axis=(1, 2))
+    return out
+
+
+def random_star(rng: np.random.Generator, n: int, slits: int, tiny: int) -> np.ndarray:
+    """A polygon star-shaped about (0, 0) (vertices at increasing angles: always simple) with
+    random radii (reflex corners), ``slits`` notches of width ~1e-4 reaching near the middle
+    and ``tiny`` edges of length ~1e-7."""
+    theta = np.sort(rng.uniform(0, 2 * np.pi, n))
+    rad = rng.uniform(0.3, 1.0, n)
+    extra_t, extra_r = [], []
+    for s in rng.choice(n - 1, slits + tiny, replace=False)[:slits]:
+        gap = theta[s + 1] - theta[s]
+        mid = theta[s] + gap / 2
+        w = min(1e-4, gap / 4)
+        extra_t += [mid - w, mid - w / 2, mid + w / 2, mid + w]
+        extra_r += [1.0, 0.05, 0.05, 1.0]
+    for s in rng.choice(n - 1, tiny, replace=False):
+        extra_t.append(theta[s] + 1e-7)
+        extra_r.append(rad[s])
+    theta = np.r_[theta, extra_t]
+    rad = np.r_[rad, extra_r]
+    order = np.argsort(theta, kind="stable")
+    z = rad[order] * np.exp(1j * theta[order])
+    return np.c_[z.real, z.imag]
+
+
+def sample_everywhere(vertices: np.ndarray, rng: np.random.Generator, k: int) -> np.ndarray:
+    """Points inside and outside, on the sides, at the corners and a hair off the corners."""
+    z = vertices[:, 0] + 1j * vertices[:, 1]
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    box = rng.uniform(lo - 0.2, hi + 0.2, (k, 2))
+    s = rng.integers(0, z.size, k)
+    on = z[s] + rng.uniform(size=k) * (np.roll(z, -1)[s] - z[s])
+    near = z + 1e-9 * np.exp(2j * np.pi * rng.uniform(size=z.size))
+    return np.r_[box[:, 0] + 1j * box[:, 1], on, z, near]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lfs_matches_the_definition_on_random_polygons(seed):
+    """Random polygons with reflex corners, slits and tiny edges; many points anywhere,
+    on the sides and at the corners: the fast nearest-feature search equals the definition
+    to float64 rounding."""
+    rng = np.random.default_rng(seed)
+    v = random_star(rng, int(rng.integers(5, 60)), slits=seed % 3, tiny=seed % 4)
+    validate_polygon(v)  # a simple polygon
+    x = sample_everywhere(v, rng, 400)
+    np.testing.assert_allclose(
+        local_feature_size(v, x), brute_lfs_vectorised(v, x), rtol=1e-12, atol=1e-15
+    )
+
+
+def test_lfs_fallback_matches_the_definition(monkeypatch):
+    """Points that the nearest items do not settle: the middle of a regular 200-gon (every
+    side about as far) and, with three items per point, most points of a random polygon;
+    the exact search within the second-nearest corner gives the definition's value."""
+    t = np.exp(2j * np.pi * np.arange(200) / 200)
+    v = np.c_[t.real, t.imag]
+    rng = np.random.default_rng(7)
+    x = np.r_[0j, 1e-3 * (rng.uniform(-1, 1, 100) + 1j * rng.uniform(-1, 1, 100))]
+    x = np.r_[x, sample_everywhere(v, rng, 100)]
+    index = mesh_module._FeatureIndex(validate_polygon(v))
+    dv, iv, sid, sd, m_k = index.nearest(x, np.c_[x.real, x.imag])
+    f = mesh_module._lfs_from_features(x, index.p0, dv, iv, sid, sd)
+    assert not np.any(f[:101] < index.bound(m_k, f)[:101])  # the middle: left to exact()
+    want = brute_lfs_vectorised(v, x)
+    np.testing.assert_allclose(local_feature_size(v, x), want, rtol=1e-12, atol=1e-15)
+    monkeypatch.setattr(mesh_module, "_LFS_K", 3)
+    np.testing.assert_allclose(local_feature_size(v, x), want, rtol=1e-12, atol=1e-15)
+    w = random_star(rng, 30, slits=1, tiny=1)
+    x = sample_everywhere(w, rng, 200)
+    np.testing.assert_allclose(
+        local_feature_size(w, x), brute_lfs_vectorised(w, x), rtol=1e-12, atol=1e-15
+    )
 
 
 def test_lfs_known_values():
