@@ -167,28 +167,49 @@ def test_lfs_matches_the_definition_on_random_polygons(seed):
     )
 
 
-def test_lfs_fallback_matches_the_definition(monkeypatch):
-    """Points that the nearest items do not settle: the middle of a regular 200-gon (every
-    side about as far) and, with three items per point, most points of a random polygon;
-    the exact search within the second-nearest corner gives the definition's value."""
+@pytest.mark.parametrize(
+    ("ratio", "max_features", "few"),
+    [(0.35, 16, 2), (0.05, 16, 2), (2.0, 16, 0), (0.35, 2, 2), (0.35, 1000, 50)],
+    ids=["default", "fine_cells", "coarse_cells", "all_exact", "cells_only"],
+)
+def test_lfs_paths_match_the_definition(monkeypatch, ratio, max_features, few):
+    """Whatever the quadtree's cell size and whichever points go to the exact search (the
+    middle of a regular 200-gon, where every side is about as far, a random polygon with a
+    slit and a tiny edge, points anywhere), the value is the definition's."""
+    monkeypatch.setattr(mesh_module, "_LFS_CELL_RATIO", ratio)
+    monkeypatch.setattr(mesh_module, "_LFS_MAX_FEATURES", max_features)
+    monkeypatch.setattr(mesh_module, "_LFS_FEW", few)
     t = np.exp(2j * np.pi * np.arange(200) / 200)
     v = np.c_[t.real, t.imag]
     rng = np.random.default_rng(7)
     x = np.r_[0j, 1e-3 * (rng.uniform(-1, 1, 100) + 1j * rng.uniform(-1, 1, 100))]
     x = np.r_[x, sample_everywhere(v, rng, 100)]
-    index = mesh_module._FeatureIndex(validate_polygon(v))
-    dv, iv, sid, sd, m_k = index.nearest(x, np.c_[x.real, x.imag])
-    f = mesh_module._lfs_from_features(x, index.p0, dv, iv, sid, sd)
-    assert not np.any(f[:101] < index.bound(m_k, f)[:101])  # the middle: left to exact()
     want = brute_lfs_vectorised(v, x)
     np.testing.assert_allclose(local_feature_size(v, x), want, rtol=1e-12, atol=1e-15)
-    monkeypatch.setattr(mesh_module, "_LFS_K", 3)
-    np.testing.assert_allclose(local_feature_size(v, x), want, rtol=1e-12, atol=1e-15)
     w = random_star(rng, 30, slits=1, tiny=1)
-    x = sample_everywhere(w, rng, 200)
+    x = np.r_[sample_everywhere(w, rng, 300), 0.01 * rng.uniform(-1, 1, 300)]
     np.testing.assert_allclose(
         local_feature_size(w, x), brute_lfs_vectorised(w, x), rtol=1e-12, atol=1e-15
     )
+
+
+def test_lfs_dense_mesh_points_match_the_definition():
+    """Many points crowded near the boundary, as a mesh's edge midpoints are (the quadtree
+    cells settle them; a cell meets a handful of features): the definition's values."""
+    rng = np.random.default_rng(11)
+    v = random_star(rng, 40, slits=1, tiny=2)
+    z = v[:, 0] + 1j * v[:, 1]
+    s = rng.integers(0, z.size, 3000)
+    on = z[s] + rng.uniform(size=s.size) * (np.roll(z, -1)[s] - z[s])
+    x = on * (1 - 10.0 ** rng.uniform(-6, -1, s.size))  # just inside (star-shaped about 0)
+    np.testing.assert_allclose(
+        local_feature_size(v, x), brute_lfs_vectorised(v, x), rtol=1e-12, atol=1e-15
+    )
+
+
+def test_lfs_non_finite_points_give_nan():
+    got = local_feature_size(SQUARE, [0.5 + 0.5j, complex(np.nan, 0), 0j])
+    np.testing.assert_allclose(got, [0.5, np.nan, 1.0])
 
 
 def test_lfs_known_values():
