@@ -129,11 +129,10 @@ _LFS_BITS = 20
 
 
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
-    """Z-order codes: the bits of ``ix`` and ``iy`` (non-negative, below 2**_LFS_BITS)
-    interleaved, x in the even bits."""
+    """Z-order codes: the bits of ``ix`` and ``iy`` (int64, non-negative, below
+    2**_LFS_BITS) interleaved, x in the even bits."""
 
     def spread(v: np.ndarray) -> np.ndarray:
-        v = v.astype(np.int64)
         v = (v | (v << 16)) & 0x0000FFFF0000FFFF
         v = (v | (v << 8)) & 0x00FF00FF00FF00FF
         v = (v | (v << 4)) & 0x0F0F0F0F0F0F0F0F
@@ -150,8 +149,8 @@ def _ranges(start: np.ndarray, end: np.ndarray) -> np.ndarray:
 
 
 class _Features:
-    """The features of a polygon (feature f < n is corner f, n + j side j, 2n a padding that
-    is infinitely far) with the searches of :func:`local_feature_size`."""
+    """The features of a polygon (feature f < n is corner f, n + j side j) with the searches
+    of :func:`local_feature_size`."""
 
     def __init__(self, poly: Polygon) -> None:
         import shapely
@@ -167,11 +166,11 @@ class _Features:
         self.features = shapely.STRtree(np.r_[shapely.points(v), lines])
         # every feature as a segment from (fx, fy) along (fdx, fdy): a corner has length 0
         # (and fdd = 1, so that its parameter is 0 and its distance exactly |x - corner|)
-        self.fx = np.r_[pz.real, pz.real, 0.0]
-        self.fy = np.r_[pz.imag, pz.imag, 0.0]
-        self.fdx = np.r_[np.zeros(n), d.real, 0.0]
-        self.fdy = np.r_[np.zeros(n), d.imag, 0.0]
-        self.fdd = np.r_[np.ones(n), d.real * d.real + d.imag * d.imag, 1.0]
+        self.fx = np.r_[pz.real, pz.real]
+        self.fy = np.r_[pz.imag, pz.imag]
+        self.fdx = np.r_[np.zeros(n), d.real]
+        self.fdy = np.r_[np.zeros(n), d.imag]
+        self.fdd = np.r_[np.ones(n), d.real * d.real + d.imag * d.imag]
         # absolute slack for the rounding of coordinates and distances
         self.slack = 1e-12 * (float(np.abs(pz).max()) + float(np.abs(d).max()))
 
@@ -189,9 +188,7 @@ class _Features:
         sy *= t
         wx -= sx
         wy -= sy
-        out = np.hypot(wx, wy, out=wx)
-        out[f == 2 * self.n] = np.inf
-        return out
+        return np.hypot(wx, wy, out=wx)
 
     def non_incident(self, f: np.ndarray) -> np.ndarray:
         """(C, F(F−1)/2) mask of the non-incident pairs among the features of each row of
@@ -206,8 +203,7 @@ class _Features:
         # a corner and a side: incident when the corner ends the side
         c, s = np.where(ca, a, b), np.where(ca, b, a) - n
         mixed = (ca != cb) & (c != s) & (c != (s + 1) % n)
-        pad = (a == 2 * n) | (b == 2 * n)
-        return (corners | mixed | sides) & ~pad
+        return corners | mixed | sides
 
     def exact(self, x: np.ndarray) -> np.ndarray:
         """Local feature size at the points ``x`` from their three nearest corners and the
@@ -417,11 +413,12 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     rank = np.arange(cell.size) - np.searchsorted(cell, np.arange(start.size))[cell]
     for k in np.unique(nf[~over]):
         cl = np.flatnonzero(nf == k)
-        table = np.full((start.size, k), 2 * feat.n, dtype=np.int64)
+        table = np.empty((start.size, k), dtype=np.int64)
         sel = nf[cell] == k
         table[cell[sel], rank[sel]] = f[sel]
         table = table[cl]
-        pair = feat.non_incident(table)
+        # inf on the incident pairs, 0 on the others
+        penalty = np.where(feat.non_incident(table), 0.0, np.inf)
         iu, ju = np.triu_indices(k, 1)
         pos = _ranges(start[cl], end[cl])
         row = np.repeat(np.arange(cl.size), end[cl] - start[cl])
@@ -429,7 +426,7 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
             p, r = pos[i : i + _LFS_CHUNK], row[i : i + _LFS_CHUNK]
             d = feat.distance(xs[p], table[r])
             val = np.maximum(d[:, iu], d[:, ju])
-            val[~pair[r]] = np.inf
+            val += penalty[r]
             out[p] = val.min(axis=1)
             done += p.size
             checkpoint(0.3 + 0.7 * done / m)
