@@ -314,7 +314,7 @@ def _lfs_cells(
     quarter = np.arange(4)
     kept, loose = [], []
     for level in range(1, _LFS_BITS + 1):
-        checkpoint()
+        checkpoint(level / _LFS_BITS)
         shift = 2 * (_LFS_BITS - level)
         kids = (4 * pre[:, None] + quarter).ravel()
         lo = np.searchsorted(code, kids << shift)
@@ -395,9 +395,10 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
         order, start, end, cen, reach, loose = _lfs_cells(feat, x)
     xs = x[order]
     out = np.empty(m)  # in sorted order until the end
-    cell, f = feat.features.query(
-        shapely.points(cen.real, cen.imag), predicate="dwithin", distance=reach
-    )
+    with span(0.3, 0.4):
+        cell, f = feat.features.query(
+            shapely.points(cen.real, cen.imag), predicate="dwithin", distance=reach
+        )
     nf = np.bincount(cell, minlength=start.size)
     over = nf > _LFS_MAX_FEATURES
     exact = np.r_[loose, _ranges(start[over], end[over])]
@@ -406,7 +407,7 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
         j = exact[i : i + _LFS_CHUNK]
         out[j] = feat.exact(xs[j])
         done += j.size
-        checkpoint(0.3 + 0.7 * done / m)
+        checkpoint(0.4 + 0.6 * done / m)
     # the features of every cell, a row per cell, for each number of features
     srt = np.argsort(cell, kind="stable")
     cell, f = cell[srt], f[srt]
@@ -429,7 +430,7 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
             val += penalty[r]
             out[p] = val.min(axis=1)
             done += p.size
-            checkpoint(0.3 + 0.7 * done / m)
+            checkpoint(0.4 + 0.6 * done / m)
     res = np.empty(m)
     res[order] = out
     return res
