@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshVerificationError
-from .geometry import angle_rounding_slack_deg, quad_signed_areas
+from .geometry import angle_rounding_slack_deg, local_signed_areas, quad_signed_areas
 from .polygon import Polygon, validate_polygon
 from .progress import checkpoint, span
 
@@ -94,7 +94,12 @@ def local_quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
     counter-clockwise quad (a reflex or clockwise corner reads above 180°)."""
     c = z[quads]
     c = c - c[:, :1]
-    e = c[:, _NEXT] - c
+    return _angles_from_edges(c[:, _NEXT] - c)
+
+
+def _angles_from_edges(e: np.ndarray) -> np.ndarray:
+    """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
+    corner k + 1), as :func:`local_quad_angles_deg` measures them."""
     ang = np.angle(-e[:, _PREV] * np.conj(e))
     ang[ang < 0] += 2 * np.pi
     return np.degrees(ang, out=ang)
@@ -982,8 +987,16 @@ class QuadMesh:
 
         q = self.quads
         checkpoint(0.05)
-        ang = self.angles()
-        areas = self.areas()
+        # corners relative to each quad's first one and the edge vectors, made once for the
+        # angles, the areas and the shortest edges (the same values as angles(), areas() and
+        # _edge_vectors() give)
+        c = self._corners()
+        c = c - c[:, :1]
+        e = c[:, _NEXT] - c
+        ang = _angles_from_edges(e)
+        areas = local_signed_areas(c)
+        min_edge = np.abs(e).min(axis=1)
+        del c, e
         checkpoint(0.2)
 
         # --- repeated indices inside a quad, unused and coincident vertices
@@ -1008,7 +1021,6 @@ class QuadMesh:
         problems += self._coincident(coincident_rtol * diam, origin)
         checkpoint(0.4)
         # --- orientation, convexity, degeneracy
-        min_edge = np.abs(self._edge_vectors()).min(axis=1)
         degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
         flipped = (areas < 0) & ~degenerate
         if flipped.any():
