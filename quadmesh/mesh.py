@@ -116,8 +116,13 @@ SIZE_FLOOR = 1e-3
 SIZE_WARN = 1.0 / 50.0
 
 
-#: Points per slice of :func:`local_feature_size`'s evaluation (a progress checkpoint each).
-_LFS_CHUNK = 100_000
+#: Points per slice of :func:`local_feature_size`'s evaluation (a progress checkpoint each;
+#: a slice's temporaries, up to 120 feature pairs per point, stay a few tens of megabytes).
+_LFS_CHUNK = 50_000
+
+#: Points per slice of the exact search (deep inside a polygon of many sides a point can
+#: have hundreds of sides within its second-nearest corner distance).
+_LFS_EXACT_CHUNK = 5_000
 
 #: A quadtree cell of :func:`_lfs_cells` is kept once its half-diagonal is at most this
 #: fraction of the local feature size at its centre.
@@ -135,16 +140,24 @@ _LFS_BITS = 20
 
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order codes: the bits of ``ix`` and ``iy`` (int64, non-negative, below
-    2**_LFS_BITS) interleaved, x in the even bits."""
+    2**_LFS_BITS) interleaved, x in the even bits (``ix`` and ``iy`` are overwritten)."""
 
-    def spread(v: np.ndarray) -> np.ndarray:
-        v = (v | (v << 16)) & 0x0000FFFF0000FFFF
-        v = (v | (v << 8)) & 0x00FF00FF00FF00FF
-        v = (v | (v << 4)) & 0x0F0F0F0F0F0F0F0F
-        v = (v | (v << 2)) & 0x3333333333333333
-        return (v | (v << 1)) & 0x5555555555555555
+    def spread(v: np.ndarray) -> np.ndarray:  # in place
+        for s, mask in (
+            (16, 0x0000FFFF0000FFFF),
+            (8, 0x00FF00FF00FF00FF),
+            (4, 0x0F0F0F0F0F0F0F0F),
+            (2, 0x3333333333333333),
+            (1, 0x5555555555555555),
+        ):
+            v |= v << s
+            v &= mask
+        return v
 
-    return spread(ix) | (spread(iy) << 1)
+    code = spread(iy)
+    code <<= 1
+    code |= spread(ix)
+    return code
 
 
 def _ranges(start: np.ndarray, end: np.ndarray) -> np.ndarray:
@@ -306,9 +319,14 @@ def _lfs_cells(
     if not size > 0:
         size = 1.0
     g = 1 << _LFS_BITS
-    ix = np.clip(((x.real - lo_x) * (g / size)).astype(np.int64), 0, g - 1)
-    iy = np.clip(((x.imag - lo_y) * (g / size)).astype(np.int64), 0, g - 1)
-    code = _morton(ix, iy)
+
+    def grid(c: np.ndarray, lo: float) -> np.ndarray:
+        c = c - lo
+        c *= g / size
+        i = c.astype(np.int64)
+        return np.clip(i, 0, g - 1, out=i)
+
+    code = _morton(grid(x.real, lo_x), grid(x.imag, lo_y))
     order = np.argsort(code, kind="stable")
     code = code[order]
     slack = 2 * feat.slack + 1e-12 * (abs(lo_x) + abs(lo_y) + size)
@@ -383,7 +401,7 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     poly = polygon if isinstance(polygon, Polygon) else validate_polygon(polygon)
     pts = np.asarray(points)
     if np.iscomplexobj(pts):
-        x = pts.astype(np.complex128).ravel()
+        x = np.asarray(pts, dtype=np.complex128).ravel()
     else:
         pts = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
         x = pts[:, 0] + 1j * pts[:, 1]
@@ -399,7 +417,7 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     with span(0.0, 0.3):
         order, start, end, cen, reach, loose = _lfs_cells(feat, x)
     xs = x[order]
-    out = np.empty(m)  # in sorted order until the end
+    out = np.empty(m)
     with span(0.3, 0.4):
         cell, f = feat.features.query(
             shapely.points(cen.real, cen.imag), predicate="dwithin", distance=reach
@@ -408,9 +426,9 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     over = nf > _LFS_MAX_FEATURES
     exact = np.r_[loose, _ranges(start[over], end[over])]
     done = 0
-    for i in range(0, exact.size, _LFS_CHUNK):
-        j = exact[i : i + _LFS_CHUNK]
-        out[j] = feat.exact(xs[j])
+    for i in range(0, exact.size, _LFS_EXACT_CHUNK):
+        j = exact[i : i + _LFS_EXACT_CHUNK]
+        out[order[j]] = feat.exact(xs[j])
         done += j.size
         checkpoint(0.4 + 0.6 * done / m)
     # the features of every cell, a row per cell, for each number of features
@@ -433,12 +451,10 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
             d = feat.distance(xs[p], table[r])
             val = np.maximum(d[:, iu], d[:, ju])
             val += penalty[r]
-            out[p] = val.min(axis=1)
+            out[order[p]] = val.min(axis=1)
             done += p.size
             checkpoint(0.4 + 0.6 * done / m)
-    res = np.empty(m)
-    res[order] = out
-    return res
+    return out
 
 
 @dataclass(frozen=True, eq=False)
