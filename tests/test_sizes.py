@@ -126,7 +126,7 @@ def random_star(rng: np.random.Generator, n: int, slits: int, tiny: int) -> np.n
     theta = np.sort(rng.uniform(0, 2 * np.pi, n))
     rad = rng.uniform(0.3, 1.0, n)
     extra_t, extra_r = [], []
-    for s in rng.choice(n - 1, slits + tiny, replace=False)[:slits]:
+    for s in rng.choice(n - 1, slits, replace=False):
         gap = theta[s + 1] - theta[s]
         mid = theta[s] + gap / 2
         w = min(1e-4, gap / 4)
@@ -156,8 +156,8 @@ def sample_everywhere(vertices: np.ndarray, rng: np.random.Generator, k: int) ->
 @pytest.mark.parametrize("seed", range(6))
 def test_lfs_matches_the_definition_on_random_polygons(seed):
     """Random polygons with reflex corners, slits and tiny edges; many points anywhere,
-    on the sides and at the corners: the fast nearest-feature search equals the definition
-    to float64 rounding."""
+    on the sides and at the corners: the quadtree search equals the definition to float64
+    rounding."""
     rng = np.random.default_rng(seed)
     v = random_star(rng, int(rng.integers(5, 60)), slits=seed % 3, tiny=seed % 4)
     validate_polygon(v)  # a simple polygon
