@@ -26,6 +26,7 @@ from .errors import MeshVerificationError
 __all__ = [
     "angle_rounding_slack_deg",
     "check_conformity",
+    "local_signed_areas",
     "quad_angles_deg",
     "quad_corners",
     "quad_edges",
@@ -71,7 +72,12 @@ def quad_signed_areas(vertices: ArrayLike, quads: ArrayLike) -> NDArray[np.float
     distance from the origin keeps its area's relative precision.
     """
     c = quad_corners(vertices, quads)
-    c = c - c[..., :1]
+    return local_signed_areas(c - c[..., :1])
+
+
+def local_signed_areas(c: NDArray[np.complex128]) -> NDArray[np.float64]:
+    """Signed areas (shoelace) of quads given by their corners ``c`` (..., Q, 4), each quad
+    already taken relative to its first corner (as :func:`quad_signed_areas` does)."""
     cn = c[..., _NEXT]
     return 0.5 * np.sum(c.real * cn.imag - cn.real * c.imag, axis=-1)
 

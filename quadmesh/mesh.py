@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import MeshVerificationError
-from .geometry import angle_rounding_slack_deg, quad_signed_areas
+from .geometry import angle_rounding_slack_deg, local_signed_areas, quad_signed_areas
 from .polygon import Polygon, validate_polygon
 from .progress import checkpoint, span
 
@@ -94,7 +94,12 @@ def local_quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
     counter-clockwise quad (a reflex or clockwise corner reads above 180°)."""
     c = z[quads]
     c = c - c[:, :1]
-    e = c[:, _NEXT] - c
+    return _angles_from_edges(c[:, _NEXT] - c)
+
+
+def _angles_from_edges(e: np.ndarray) -> np.ndarray:
+    """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
+    corner k + 1), as :func:`local_quad_angles_deg` measures them."""
     ang = np.angle(-e[:, _PREV] * np.conj(e))
     ang[ang < 0] += 2 * np.pi
     return np.degrees(ang, out=ang)
@@ -111,18 +116,253 @@ SIZE_FLOOR = 1e-3
 SIZE_WARN = 1.0 / 50.0
 
 
-def _segment_distance(x: np.ndarray, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """Distance from complex points ``x`` to the segments [p0, p1] (elementwise)."""
-    d = p1 - p0
-    dd = (d * np.conj(d)).real
-    w = x - p0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(dd > 0, (w * np.conj(d)).real / dd, 0.0)
-    return np.abs(w - np.clip(t, 0.0, 1.0) * d)
+#: Points per slice of :func:`local_feature_size`'s evaluation (a progress checkpoint each;
+#: a slice's temporaries, up to 120 feature pairs per point, stay a few tens of megabytes).
+_LFS_CHUNK = 50_000
+
+#: Points per slice of the exact search (deep inside a polygon of many sides a point can
+#: have hundreds of sides within its second-nearest corner distance).
+_LFS_EXACT_CHUNK = 5_000
+
+#: A quadtree cell of :func:`_lfs_cells` is kept once its half-diagonal is at most this
+#: fraction of the local feature size at its centre.
+_LFS_CELL_RATIO = 0.35
+
+#: Cells that meet more features than this (deep inside, where many sides are about equally
+#: far) and cells of at most :data:`_LFS_FEW` points leave their points to
+#: :meth:`_Features.exact`.
+_LFS_MAX_FEATURES = 16
+_LFS_FEW = 2
+
+#: Quadtree depth: points are binned on a 2**20 × 2**20 grid over their bounding square.
+_LFS_BITS = 20
 
 
-#: Points per chunk of :func:`local_feature_size` (about 0.3 s each).
-_LFS_CHUNK = 100_000
+def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
+    """Z-order codes: the bits of ``ix`` and ``iy`` (int64, non-negative, below
+    2**_LFS_BITS) interleaved, x in the even bits (``ix`` and ``iy`` are overwritten)."""
+
+    def spread(v: np.ndarray) -> np.ndarray:  # in place
+        for s, mask in (
+            (16, 0x0000FFFF0000FFFF),
+            (8, 0x00FF00FF00FF00FF),
+            (4, 0x0F0F0F0F0F0F0F0F),
+            (2, 0x3333333333333333),
+            (1, 0x5555555555555555),
+        ):
+            v |= v << s
+            v &= mask
+        return v
+
+    code = spread(iy)
+    code <<= 1
+    code |= spread(ix)
+    return code
+
+
+def _ranges(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """The integers of the ranges [start, end), concatenated."""
+    cnt = end - start
+    return np.repeat(start - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+
+
+class _Features:
+    """The features of a polygon (feature f < n is corner f, n + j side j) with the searches
+    of :func:`local_feature_size`."""
+
+    def __init__(self, poly: Polygon) -> None:
+        import shapely
+        from scipy.spatial import cKDTree
+
+        v = poly.vertices
+        self.n = n = poly.n
+        self.p0 = pz = poly.z
+        d = np.roll(pz, -1) - pz
+        self.corners = cKDTree(v)
+        lines = shapely.linestrings(np.stack([v, np.roll(v, -1, axis=0)], axis=1))
+        self.sides = shapely.STRtree(lines)
+        self.features = shapely.STRtree(np.r_[shapely.points(v), lines])
+        # every feature as a segment from (fx, fy) along (fdx, fdy): a corner has length 0
+        # (and fdd = 1, so that its parameter is 0 and its distance exactly |x - corner|)
+        self.fx = np.r_[pz.real, pz.real]
+        self.fy = np.r_[pz.imag, pz.imag]
+        self.fdx = np.r_[np.zeros(n), d.real]
+        self.fdy = np.r_[np.zeros(n), d.imag]
+        self.fdd = np.r_[np.ones(n), d.real * d.real + d.imag * d.imag]
+        # absolute slack for the rounding of coordinates and distances
+        self.slack = 1e-12 * (float(np.abs(pz).max()) + float(np.abs(d).max()))
+
+    def distance(self, x: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """(m, k) distances from the points ``x`` (m,) to the features ``f`` (m, k)."""
+        wx = x.real[:, None] - self.fx[f]
+        wy = x.imag[:, None] - self.fy[f]
+        sx, sy = self.fdx[f], self.fdy[f]
+        # the parameter of the nearest point of the side's line, clipped to the side
+        t = wx * sx
+        t += wy * sy
+        t /= self.fdd[f]
+        np.clip(t, 0.0, 1.0, out=t)
+        sx *= t
+        sy *= t
+        wx -= sx
+        wy -= sy
+        return np.hypot(wx, wy, out=wx)
+
+    def non_incident(self, f: np.ndarray) -> np.ndarray:
+        """(C, F(F−1)/2) mask of the non-incident pairs among the features of each row of
+        ``f`` (C, F), the pairs in :func:`numpy.triu_indices` order."""
+        n = self.n
+        iu, ju = np.triu_indices(f.shape[1], 1)
+        a, b = f[:, iu], f[:, ju]
+        ca, cb = a < n, b < n
+        gap = (a - b) % n
+        sides = ~ca & ~cb & (gap != 0) & (gap != 1) & (gap != n - 1)
+        corners = ca & cb & (a != b)
+        # a corner and a side: incident when the corner ends the side
+        c, s = np.where(ca, a, b), np.where(ca, b, a) - n
+        mixed = (ca != cb) & (c != s) & (c != (s + 1) % n)
+        return corners | mixed | sides
+
+    def exact(self, x: np.ndarray) -> np.ndarray:
+        """Local feature size at the points ``x`` from their three nearest corners and the
+        three nearest sides within the second-nearest corner distance r (lfs ≤ r, so farther
+        sides do not matter; a :class:`shapely.STRtree` query)."""
+        import shapely
+
+        n, m = self.n, x.size
+        if m == 0:
+            return np.zeros(0)
+        xy = np.column_stack([x.real, x.imag])
+        dv, iv = self.corners.query(xy, k=3)
+        ii, jj = self.sides.query(
+            shapely.points(xy[:, 0], xy[:, 1]), predicate="dwithin", distance=dv[:, 1]
+        )
+        # the two sides at the nearest corner are within r whatever the rounding
+        ar = np.arange(m)
+        key = np.unique(np.r_[ii * n + jj, ar * n + iv[:, 0], ar * n + (iv[:, 0] - 1) % n])
+        ii, jj = key // n, key % n
+        dist = self.distance(x[ii], (n + jj)[:, None])[:, 0]
+        order = np.lexsort((dist, ii))
+        ii, jj, dist = ii[order], jj[order], dist[order]
+        rank = np.arange(ii.size) - np.searchsorted(ii, ar)[ii]
+        top = rank < 3
+        sid = np.full((m, 3), -1, dtype=np.int64)
+        sd = np.full((m, 3), np.inf)
+        sid[ii[top], rank[top]] = jj[top]
+        sd[ii[top], rank[top]] = dist[top]
+        return _lfs_from_features(x, self.p0, dv, iv, sid, sd)
+
+
+def _lfs_from_features(
+    x: np.ndarray,
+    pz: np.ndarray,
+    dv: np.ndarray,
+    iv: np.ndarray,
+    sid: np.ndarray,
+    sd: np.ndarray,
+) -> np.ndarray:
+    """Local feature size from the three nearest corners (distances ``dv``, indices ``iv``)
+    and the three nearest sides (``sid``, ``sd``, ascending; a slot with ``sd`` = inf is
+    empty) of each point ``x`` of the polygon with corners ``pz``.
+
+    The smallest disk about x meeting two non-incident features meets them at its boundary;
+    a disk meeting no non-incident pair meets at most one corner and two sides, so the pairs
+    that matter are: the two nearest corners; a corner and the nearest side s1 when the
+    corner is not an end of s1; two non-adjacent sides among the three nearest; an end e of
+    s1 and the nearest of the three sides that does not end at e (every other corner-side
+    pair is dominated by one of these)."""
+    n = pz.size
+    ok = np.isfinite(sd)
+
+    def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        k = (a - b) % n
+        return (k == 0) | (k == 1) | (k == n - 1)
+
+    s1 = sid[:, 0]  # the nearest side (the first slot is never empty)
+    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
+    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
+    out = np.minimum(dv[:, 1], np.where(ends1, np.inf, dv).min(axis=1))
+    # side-side pairs: the best is among the three nearest sides
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
+        out = np.where(pair, np.minimum(out, sd[:, b]), out)
+    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
+    # three nearest sides; other corner-side pairs are dominated by the ones above
+    for e in (s1, (s1 + 1) % n):
+        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
+        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
+        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
+    return out
+
+
+def _lfs_cells(
+    feat: _Features, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A quadtree over the points ``x`` whose cells are small against the local feature size.
+
+    The points are sorted by their Z-order code on a grid over their bounding square, so that
+    every quadtree cell holds a contiguous range of them. From the whole square down, a cell
+    is kept when its half-diagonal ρ is at most :data:`_LFS_CELL_RATIO` times lfs at its
+    centre c (:meth:`_Features.exact`), and split otherwise; a cell of at most
+    :data:`_LFS_FEW` points is set aside for :meth:`_Features.exact`. A kept cell's
+    ``reach`` is ``lfs(c) + 2ρ`` (and a little slack): for a point x of the cell,
+    ``lfs(x) ≤ lfs(c) + ρ`` (lfs is 1-Lipschitz) and every feature within ``reach − ρ`` of x
+    lies within ``reach`` of c.
+
+    Returns:
+        ``(order, start, end, centre, reach, loose)``: the sort order of the points, the
+        kept cells as ranges [start, end) of sorted positions with their centres and reaches,
+        and the sorted positions left to the exact search.
+    """
+    lo_x, lo_y = float(x.real.min()), float(x.imag.min())
+    size = max(float(x.real.max()) - lo_x, float(x.imag.max()) - lo_y)
+    if not size > 0:
+        size = 1.0
+    g = 1 << _LFS_BITS
+
+    def grid(c: np.ndarray, lo: float) -> np.ndarray:
+        c = c - lo
+        c *= g / size
+        i = c.astype(np.int64)
+        return np.clip(i, 0, g - 1, out=i)
+
+    code = _morton(grid(x.real, lo_x), grid(x.imag, lo_y))
+    order = np.argsort(code, kind="stable")
+    code = code[order]
+    slack = 2 * feat.slack + 1e-12 * (abs(lo_x) + abs(lo_y) + size)
+    # the cells to split: Z-order prefix and integer position at the current level
+    pre = np.zeros(1, dtype=np.int64)
+    cx = np.zeros(1, dtype=np.int64)
+    cy = np.zeros(1, dtype=np.int64)
+    quarter = np.arange(4)
+    kept, loose = [], []
+    for level in range(1, _LFS_BITS + 1):
+        checkpoint(level / _LFS_BITS)
+        shift = 2 * (_LFS_BITS - level)
+        kids = (4 * pre[:, None] + quarter).ravel()
+        lo = np.searchsorted(code, kids << shift)
+        hi = np.searchsorted(code, (kids + 1) << shift)
+        cx = (2 * cx[:, None] + (quarter & 1)).ravel()
+        cy = (2 * cy[:, None] + (quarter >> 1)).ravel()
+        few = hi - lo <= _LFS_FEW if level < _LFS_BITS else hi > lo
+        loose.append(_ranges(lo[few], hi[few]))
+        split = (hi - lo > _LFS_FEW) & ~few
+        pre, lo, hi, cx, cy = kids[split], lo[split], hi[split], cx[split], cy[split]
+        if pre.size == 0:
+            break
+        side = size / (1 << level)
+        cen = (lo_x + (cx + 0.5) * side) + 1j * (lo_y + (cy + 0.5) * side)
+        rho = 0.5 * np.sqrt(2.0) * side
+        lfs = feat.exact(cen)
+        ok = rho <= _LFS_CELL_RATIO * lfs
+        kept.append((lo[ok], hi[ok], cen[ok], (lfs[ok] + 2 * rho) * (1 + 1e-9) + slack))
+        pre, cx, cy = pre[~ok], cx[~ok], cy[~ok]
+    if kept:
+        start, end, cen, reach = (np.concatenate(a) for a in zip(*kept, strict=True))
+    else:
+        start = end = np.zeros(0, dtype=np.int64)
+        cen, reach = np.zeros(0, dtype=np.complex128), np.zeros(0)
+    return order, start, end, cen, reach, np.concatenate(loose)
 
 
 def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
@@ -138,12 +378,16 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     sides there (two distinct corners are never incident). It is positive at every point of
     the closed polygon, including its corners and sides, and 1-Lipschitz.
 
-    Computed exactly (up to float64 rounding of the distances): a disk that meets no
-    non-incident pair meets at most one corner and two sides, so only the three nearest
-    corners (:class:`scipy.spatial.cKDTree`) and the three nearest sides matter; lfs is at
-    most the distance to the second-nearest corner, so the sides are the three nearest of
-    those within that distance (one :class:`shapely.STRtree` ``dwithin`` query). Vectorised:
-    about a second per 300 000 points on one core.
+    Computed exactly (up to float64 rounding of the distances). The points are put in the
+    cells of a quadtree that are small against lfs (:func:`_lfs_cells`); every feature within
+    lfs(x) of a point x of a cell is among the features that one :class:`shapely.STRtree`
+    query finds within the cell's reach of its centre, so lfs(x) is the smallest
+    ``max(|x − f|, |x − g|)`` over the non-incident pairs (f, g) of those few features
+    (typically 5 to 7). Points of cells that meet many features (deep inside, where many
+    sides are about equally far) or that hold one or two points take the exact search of
+    :meth:`_Features.exact`: the three nearest corners and the three nearest sides within
+    the second-nearest corner distance (a disk that meets no non-incident pair meets at most
+    one corner and two sides). Vectorised: about a second per million points on one core.
 
     Args:
         polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
@@ -153,67 +397,63 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
         (N,) float64 array of local feature sizes.
     """
     import shapely
-    from scipy.spatial import cKDTree
 
     poly = polygon if isinstance(polygon, Polygon) else validate_polygon(polygon)
     pts = np.asarray(points)
     if np.iscomplexobj(pts):
-        x = pts.astype(np.complex128).ravel()
+        x = np.asarray(pts, dtype=np.complex128).ravel()
     else:
         pts = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
         x = pts[:, 0] + 1j * pts[:, 1]
     m = x.size
     if m == 0:
         return np.zeros(0)
-    if m > _LFS_CHUNK:
-        # in chunks, so that a run's progress moves and Cancel is heard (quadmesh.progress)
-        out = np.empty(m)
-        for i in range(0, m, _LFS_CHUNK):
-            out[i : i + _LFS_CHUNK] = local_feature_size(poly, x[i : i + _LFS_CHUNK])
-            checkpoint((i + _LFS_CHUNK) / m)
+    finite = np.isfinite(x)
+    if not finite.all():  # nan where a point is not finite
+        out = np.full(m, np.nan)
+        out[finite] = local_feature_size(poly, x[finite])
         return out
-    pz = poly.z
-    n = poly.n
-    p1 = np.roll(pz, -1)
-
-    # corners: the three nearest; two distinct corners are never incident, so the
-    # second-nearest corner distance r bounds lfs from above: only features within r matter
-    dv, iv = cKDTree(poly.vertices).query(np.column_stack([x.real, x.imag]), k=min(3, n))
-    r = dv[:, 1]
-    sides = shapely.linestrings(np.stack([poly.vertices, np.roll(poly.vertices, -1, axis=0)], 1))
-    ii, jj = shapely.STRtree(sides).query(
-        shapely.points(x.real, x.imag), predicate="dwithin", distance=r
-    )
-    dist = _segment_distance(x[ii], pz[jj], p1[jj])
-    order = np.lexsort((dist, ii))
-    ii, jj, dist = ii[order], jj[order], dist[order]
-    rank = np.arange(ii.size) - np.searchsorted(ii, np.arange(m))[ii]
-    top = rank < 3
-    sid = np.full((m, 3), -1, dtype=np.int64)  # the three nearest sides (-1: none within r)
-    sd = np.full((m, 3), np.inf)
-    sid[ii[top], rank[top]] = jj[top]
-    sd[ii[top], rank[top]] = dist[top]
-    ok = sid >= 0
-
-    def adjacent(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        k = (a - b) % n
-        return (k == 0) | (k == 1) | (k == n - 1)
-
-    # the nearest side s1 lies within r (the sides at the nearest corner do)
-    s1 = np.where(ok[:, 0], sid[:, 0], iv[:, 0])
-    # (corner v, s1) with v not an end of s1: max(|x - v|, d1) = |x - v|
-    ends1 = (iv == s1[:, None]) | (iv == ((s1 + 1) % n)[:, None])
-    out = np.minimum(r, np.where(ends1, np.inf, dv).min(axis=1))
-    # side-side pairs: the best is among the three nearest sides
-    for a, b in ((0, 1), (0, 2), (1, 2)):
-        pair = ok[:, a] & ok[:, b] & ~adjacent(sid[:, a], sid[:, b])
-        out = np.where(pair, np.minimum(out, sd[:, b]), out)
-    # (corner e at an end of s1, side not ending at e): the nearest such side is among the
-    # three nearest sides; other corner-side pairs are dominated by the ones above
-    for e in (s1, (s1 + 1) % n):
-        on_e = (sid == e[:, None]) | (sid == ((e - 1) % n)[:, None])
-        t = np.where(ok & ~on_e, sd, np.inf).min(axis=1)
-        out = np.minimum(out, np.maximum(np.abs(x - pz[e]), t))
+    feat = _Features(poly)
+    with span(0.0, 0.3):
+        order, start, end, cen, reach, loose = _lfs_cells(feat, x)
+    xs = x[order]
+    out = np.empty(m)
+    with span(0.3, 0.4):
+        cell, f = feat.features.query(
+            shapely.points(cen.real, cen.imag), predicate="dwithin", distance=reach
+        )
+    nf = np.bincount(cell, minlength=start.size)
+    over = nf > _LFS_MAX_FEATURES
+    exact = np.r_[loose, _ranges(start[over], end[over])]
+    done = 0
+    for i in range(0, exact.size, _LFS_EXACT_CHUNK):
+        j = exact[i : i + _LFS_EXACT_CHUNK]
+        out[order[j]] = feat.exact(xs[j])
+        done += j.size
+        checkpoint(0.4 + 0.6 * done / m)
+    # the features of every cell, a row per cell, for each number of features
+    srt = np.argsort(cell, kind="stable")
+    cell, f = cell[srt], f[srt]
+    rank = np.arange(cell.size) - np.searchsorted(cell, np.arange(start.size))[cell]
+    for k in np.unique(nf[~over]):
+        cl = np.flatnonzero(nf == k)
+        table = np.empty((start.size, k), dtype=np.int64)
+        sel = nf[cell] == k
+        table[cell[sel], rank[sel]] = f[sel]
+        table = table[cl]
+        # inf on the incident pairs, 0 on the others
+        penalty = np.where(feat.non_incident(table), 0.0, np.inf)
+        iu, ju = np.triu_indices(k, 1)
+        pos = _ranges(start[cl], end[cl])
+        row = np.repeat(np.arange(cl.size), end[cl] - start[cl])
+        for i in range(0, pos.size, _LFS_CHUNK):
+            p, r = pos[i : i + _LFS_CHUNK], row[i : i + _LFS_CHUNK]
+            d = feat.distance(xs[p], table[r])
+            val = np.maximum(d[:, iu], d[:, ju])
+            val += penalty[r]
+            out[order[p]] = val.min(axis=1)
+            done += p.size
+            checkpoint(0.4 + 0.6 * done / m)
     return out
 
 
@@ -763,8 +1003,16 @@ class QuadMesh:
 
         q = self.quads
         checkpoint(0.05)
-        ang = self.angles()
-        areas = self.areas()
+        # corners relative to each quad's first one and the edge vectors, made once for the
+        # angles, the areas and the shortest edges (the same values as angles(), areas() and
+        # _edge_vectors() give)
+        c = self._corners()
+        c = c - c[:, :1]
+        e = c[:, _NEXT] - c
+        ang = _angles_from_edges(e)
+        areas = local_signed_areas(c)
+        min_edge = np.abs(e).min(axis=1)
+        del c, e
         checkpoint(0.2)
 
         # --- repeated indices inside a quad, unused and coincident vertices
@@ -789,7 +1037,6 @@ class QuadMesh:
         problems += self._coincident(coincident_rtol * diam, origin)
         checkpoint(0.4)
         # --- orientation, convexity, degeneracy
-        min_edge = np.abs(self._edge_vectors()).min(axis=1)
         degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
         flipped = (areas < 0) & ~degenerate
         if flipped.any():

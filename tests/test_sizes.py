@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import shapely
 
+from quadmesh import mesh as mesh_module
 from quadmesh.benchmark import format_family_table, smooth_star, summarise_families
 from quadmesh.cli import EXIT_OK, main
 from quadmesh.io import write_mesh, write_polygon
@@ -88,6 +89,127 @@ def test_lfs_matches_the_definition(vertices):
     np.testing.assert_allclose(got, want, rtol=1e-12)
     # (N, 2) reals and complex points give the same
     np.testing.assert_array_equal(local_feature_size(vertices, np.c_[x.real, x.imag]), got)
+
+
+def feature_distances(vertices: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """(P, 2n) distances from the points to every corner, then to every side."""
+    z = vertices[:, 0] + 1j * vertices[:, 1]
+    a, b = z[None, :], np.roll(z, -1)[None, :]
+    p = x[:, None]
+    t = np.clip(((p - a) * np.conj(b - a)).real / np.abs(b - a) ** 2, 0, 1)
+    return np.c_[np.abs(p - a), np.abs(p - a - t * (b - a))]
+
+
+def brute_lfs_vectorised(vertices: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The definition again, for larger cases: over every pair of non-incident features
+    (corner i with corner j ≠ i, corner i with a side not ending at i, sides that share no
+    corner), the smallest of the larger distance."""
+    n = vertices.shape[0]
+    k = np.arange(n)
+    cc = k[:, None] != k[None, :]
+    cs = (k[None, :] != k[:, None]) & ((k[None, :] + 1) % n != k[:, None])  # corner i, side j
+    gap = (k[:, None] - k[None, :]) % n
+    ss = (gap != 0) & (gap != 1) & (gap != n - 1)
+    ok = np.block([[cc, cs], [cs.T, ss]])
+    out = np.empty(x.size)
+    for i in range(0, x.size, 200):
+        d = feature_distances(vertices, x[i : i + 200])
+        pair = np.maximum(d[:, :, None], d[:, None, :])
+        out[i : i + 200] = np.where(ok, pair, np.inf).min(axis=(1, 2))
+    return out
+
+
+def random_star(rng: np.random.Generator, n: int, slits: int, tiny: int) -> np.ndarray:
+    """A polygon star-shaped about (0, 0) (vertices at increasing angles: always simple) with
+    random radii (reflex corners), ``slits`` notches of width ~1e-4 reaching near the middle
+    and ``tiny`` edges of length ~1e-7."""
+    theta = np.sort(rng.uniform(0, 2 * np.pi, n))
+    rad = rng.uniform(0.3, 1.0, n)
+    extra_t, extra_r = [], []
+    for s in rng.choice(n - 1, slits, replace=False):
+        gap = theta[s + 1] - theta[s]
+        mid = theta[s] + gap / 2
+        w = min(1e-4, gap / 4)
+        extra_t += [mid - w, mid - w / 2, mid + w / 2, mid + w]
+        extra_r += [1.0, 0.05, 0.05, 1.0]
+    for s in rng.choice(n - 1, tiny, replace=False):
+        extra_t.append(theta[s] + 1e-7)
+        extra_r.append(rad[s])
+    theta = np.r_[theta, extra_t]
+    rad = np.r_[rad, extra_r]
+    order = np.argsort(theta, kind="stable")
+    z = rad[order] * np.exp(1j * theta[order])
+    return np.c_[z.real, z.imag]
+
+
+def sample_everywhere(vertices: np.ndarray, rng: np.random.Generator, k: int) -> np.ndarray:
+    """Points inside and outside, on the sides, at the corners and a hair off the corners."""
+    z = vertices[:, 0] + 1j * vertices[:, 1]
+    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    box = rng.uniform(lo - 0.2, hi + 0.2, (k, 2))
+    s = rng.integers(0, z.size, k)
+    on = z[s] + rng.uniform(size=k) * (np.roll(z, -1)[s] - z[s])
+    near = z + 1e-9 * np.exp(2j * np.pi * rng.uniform(size=z.size))
+    return np.r_[box[:, 0] + 1j * box[:, 1], on, z, near]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_lfs_matches_the_definition_on_random_polygons(seed):
+    """Random polygons with reflex corners, slits and tiny edges; many points anywhere,
+    on the sides and at the corners: the quadtree search equals the definition to float64
+    rounding."""
+    rng = np.random.default_rng(seed)
+    v = random_star(rng, int(rng.integers(5, 60)), slits=seed % 3, tiny=seed % 4)
+    validate_polygon(v)  # a simple polygon
+    x = sample_everywhere(v, rng, 400)
+    np.testing.assert_allclose(
+        local_feature_size(v, x), brute_lfs_vectorised(v, x), rtol=1e-12, atol=1e-15
+    )
+
+
+@pytest.mark.parametrize(
+    ("ratio", "max_features", "few"),
+    [(0.35, 16, 2), (0.05, 16, 2), (2.0, 16, 0), (0.35, 2, 2), (0.35, 1000, 50)],
+    ids=["default", "fine_cells", "coarse_cells", "all_exact", "cells_only"],
+)
+def test_lfs_paths_match_the_definition(monkeypatch, ratio, max_features, few):
+    """Whatever the quadtree's cell size and whichever points go to the exact search (the
+    middle of a regular 200-gon, where every side is about as far, a random polygon with a
+    slit and a tiny edge, points anywhere), the value is the definition's."""
+    monkeypatch.setattr(mesh_module, "_LFS_CELL_RATIO", ratio)
+    monkeypatch.setattr(mesh_module, "_LFS_MAX_FEATURES", max_features)
+    monkeypatch.setattr(mesh_module, "_LFS_FEW", few)
+    t = np.exp(2j * np.pi * np.arange(200) / 200)
+    v = np.c_[t.real, t.imag]
+    rng = np.random.default_rng(7)
+    x = np.r_[0j, 1e-3 * (rng.uniform(-1, 1, 100) + 1j * rng.uniform(-1, 1, 100))]
+    x = np.r_[x, sample_everywhere(v, rng, 100)]
+    want = brute_lfs_vectorised(v, x)
+    np.testing.assert_allclose(local_feature_size(v, x), want, rtol=1e-12, atol=1e-15)
+    w = random_star(rng, 30, slits=1, tiny=1)
+    x = np.r_[sample_everywhere(w, rng, 300), 0.01 * rng.uniform(-1, 1, 300)]
+    np.testing.assert_allclose(
+        local_feature_size(w, x), brute_lfs_vectorised(w, x), rtol=1e-12, atol=1e-15
+    )
+
+
+def test_lfs_dense_mesh_points_match_the_definition():
+    """Many points crowded near the boundary, as a mesh's edge midpoints are (the quadtree
+    cells settle them; a cell meets a handful of features): the definition's values."""
+    rng = np.random.default_rng(11)
+    v = random_star(rng, 40, slits=1, tiny=2)
+    z = v[:, 0] + 1j * v[:, 1]
+    s = rng.integers(0, z.size, 3000)
+    on = z[s] + rng.uniform(size=s.size) * (np.roll(z, -1)[s] - z[s])
+    x = on * (1 - 10.0 ** rng.uniform(-6, -1, s.size))  # just inside (star-shaped about 0)
+    np.testing.assert_allclose(
+        local_feature_size(v, x), brute_lfs_vectorised(v, x), rtol=1e-12, atol=1e-15
+    )
+
+
+def test_lfs_non_finite_points_give_nan():
+    got = local_feature_size(SQUARE, [0.5 + 0.5j, complex(np.nan, 0), 0j])
+    np.testing.assert_allclose(got, [0.5, np.nan, 1.0])
 
 
 def test_lfs_known_values():

@@ -46,7 +46,9 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
 
 from __future__ import annotations
 
+import bisect
 import math
+import operator
 from collections.abc import Iterator
 
 import numpy as np
@@ -168,11 +170,13 @@ class _Node:
         self.kids: tuple[_Node, _Node] | None = None
 
 
-def _nearest(psi: np.ndarray, ang: float, lo_i: int, hi_i: int) -> int:
-    """Index in [lo_i, hi_i] whose crosscut angle psi is nearest to ``ang``."""
-    k = int(np.searchsorted(psi, ang))
-    cand = [min(max(j, lo_i), hi_i) for j in (k - 1, k)]
-    return min(cand, key=lambda j: abs(psi[j] - ang))
+def _nearest(psi: list[float], ang: float, lo_i: int, hi_i: int) -> int:
+    """Index in [lo_i, hi_i] whose crosscut angle psi (ascending) is nearest to ``ang``; the
+    lower one of two equally near."""
+    k = bisect.bisect_left(psi, ang)
+    j0 = min(max(k - 1, lo_i), hi_i)
+    j1 = min(max(k, lo_i), hi_i)
+    return j0 if abs(psi[j0] - ang) <= abs(psi[j1] - ang) else j1
 
 
 def _build_tree(
@@ -187,6 +191,7 @@ def _build_tree(
     Returns the roots and whether the cap changed any choice (else the tree is the uncapped one).
     """
     p1 = len(psi) - 1
+    psi = np.asarray(psi, dtype=float).tolist()  # scalar look-ups: a list is much faster
     cap = _MAX_DEPTH if depth_cap is None else depth_cap
     changed = False
     bounds = [0]
@@ -281,6 +286,7 @@ class _Builder:
     def __init__(self, alpha: float, n_top: int, theta: float) -> None:
         self.alpha, self.n_top, self.theta = alpha, n_top, theta
         self.keys: dict[tuple, int] = {}
+        self.rays: dict[tuple[int, float], int] = {}  # (n, rho) -> index
         self.z: list[complex] = []
         self.quads: list[tuple[int, int, int, int]] = []
         self.kind: list[int] = []
@@ -296,11 +302,11 @@ class _Builder:
         return u
 
     def ray(self, n: int, rho: float) -> int:
-        key = ("r", n, rho)
-        idx = self.keys.get(key)
+        key = (n, rho)
+        idx = self.rays.get(key)
         if idx is None:
             idx = len(self.z)
-            self.keys[key] = idx
+            self.rays[key] = idx
             self.z.append(rho * self.ray_dir(n))
             side = self.sides.get(n)
             if side is not None:
@@ -452,6 +458,8 @@ def _sector_from_tree(
         set_r = {3: tuple(r_j * x for x in loc["set3"]), 2: tuple(r_j * x for x in loc["set2"])}
         r_next = r_j * loc["r2"]
         pts_loc: dict[str, complex] = loc["points"]  # type: ignore[assignment]
+        # the vertex ids of each Mesh 2 quad from the piece's name -> id map
+        corners_of = [operator.itemgetter(*q) for q in loc["quads"]]  # type: ignore[union-attr]
         # The set carried before the first Mesh 2 piece is free (the whole orientation pattern
         # may be mirrored); pick the one that gives the plain strips fewer cells.
         refined = np.array([nd.kids is not None for nd in frontier])
@@ -460,19 +468,24 @@ def _sector_from_tree(
         plain_odd = int(np.sum(~refined & (parity == 1)))
         cur = 2 if plain_even >= plain_odd else 3
         nxt: list[_Node] = []
+        ray = b.ray
         for nd in frontier:
             if nd.kids is None:
+                # a plain strip: quads (lo r_k, lo r_k+1, hi r_k+1, hi r_k), its vertices made
+                # in that order (a quad's first and last are the previous quad's second and
+                # third)
                 radii = (r_j, *set_r[cur], r_next)
-                for k in range(len(radii) - 1):
-                    b.quad(
-                        (
-                            b.ray(nd.lo, radii[k]),
-                            b.ray(nd.lo, radii[k + 1]),
-                            b.ray(nd.hi, radii[k + 1]),
-                            b.ray(nd.hi, radii[k]),
-                        ),
-                        KIND_STRIP,
-                    )
+                lo_n, hi_n = nd.lo, nd.hi
+                a0 = ray(lo_n, radii[0])
+                b0 = -1
+                for k in range(1, len(radii)):
+                    a1 = ray(lo_n, radii[k])
+                    b1 = ray(hi_n, radii[k])
+                    if b0 < 0:
+                        b0 = ray(hi_n, radii[0])
+                    b.quads.append((a0, a1, b1, b0))
+                    a0, b0 = a1, b1
+                b.kind.extend([KIND_STRIP] * (len(radii) - 1))
                 nxt.append(nd)
                 continue
             if nd.depth != j:
@@ -499,8 +512,8 @@ def _sector_from_tree(
                 if reflected:
                     zl = -zl.conjugate()
                 ids[name] = b.point(("p", piece, name), r_j * zl * rot)
-            for q in loc["quads"]:  # type: ignore[union-attr]
-                idx = tuple(ids[nm] for nm in q)
+            for get in corners_of:
+                idx = get(ids)
                 b.quad(idx[::-1] if reflected else idx, KIND_MESH2)
             piece += 1
             cur = 5 - cur
