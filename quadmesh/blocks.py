@@ -724,6 +724,26 @@ def _turn(d: complex, ref: complex) -> float:
     return math.degrees(math.atan2(q.imag, q.real)) % 360.0
 
 
+def _arm_back(z: NDArray[np.complex128], r: _Ray, hub: complex, diam: float) -> _Ray:
+    """The arm of a junction from ``hub`` back to the corner where the cut ``r`` starts (the
+    part of ``r`` before the hub), serving ``r``'s slots."""
+    length = abs(hub - z[r.start])
+    return _Ray(
+        start=-1,
+        d=-r.d,
+        end=complex(z[r.start]),
+        edge=-1,
+        u=0.0,
+        join=r.start,
+        slots=list(r.slots),
+        cost=1.0 + 0.2 * length / diam,
+        base=-2,
+        stop=-1,
+        reach=length,
+        p0=hub,
+    )
+
+
 def _junctions(
     z: NDArray[np.complex128],
     theta: NDArray[np.float64],
@@ -806,34 +826,7 @@ def _junctions(
         hub = complex(P[a] + s[a, b] * D[a])
         if _boundary_dist(z, hub) < gap:
             continue
-        arm_a = _Ray(
-            -1,
-            -ra.d,
-            complex(z[ra.start]),
-            -1,
-            0.0,
-            ra.start,
-            list(ra.slots),
-            1.0 + 0.2 * abs(hub - z[ra.start]) / diam,
-            -2,
-            -1,
-            abs(hub - z[ra.start]),
-            p0=hub,
-        )
-        arm_b = _Ray(
-            -1,
-            -rb.d,
-            complex(z[rb.start]),
-            -1,
-            0.0,
-            rb.start,
-            list(rb.slots),
-            1.0 + 0.2 * abs(hub - z[rb.start]) / diam,
-            -2,
-            -1,
-            abs(hub - z[rb.start]),
-            p0=hub,
-        )
+        arm_a, arm_b = _arm_back(z, ra, hub, diam), _arm_back(z, rb, hub, diam)
         da = math.degrees(math.atan2(-ra.d.imag, -ra.d.real))  # the arm back to a
         om = float(omega[a, b])  # from the arm to a counter-clockwise to the arm to b
         others = corners[(corners != ra.start) & (corners != rb.start)]
