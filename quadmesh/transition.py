@@ -1,0 +1,559 @@
+"""Transition cells: a convex cell whose two opposite sides carry different point counts.
+
+A strip of quads keeps its count across: every row of a bilinear grid runs from one side of
+the cell to the opposite side.  Changing the count needs irregular vertices (Euler: a quad mesh
+of a disk with every boundary point straight has as many valence-3 as valence-5 interior
+vertices, boundary vertices with three quads counting like valence 5).  In a quad mesh whose
+every angle lies in [60°, 120°] a valence-3 vertex has exactly three 120° angles, and a
+straight boundary point with three quads exactly three 60° angles, so a transition must be
+built around exact 120° vertices and *bent* interior lines.
+
+The template used here splits coarse rows two at a time.  In the ruled (bilinear) frame of a
+cell, coarse rows are the strips between consecutive ``p``-isolines ("lines"); one interior
+``u``-isoline, the *split column*, carries a point ``O`` on every line.  A *pair* is two
+adjacent coarse rows, the lower one split "flipped" (F) and the upper one split "normal" (N):
+
+* the line between them gets one extra point ``W`` just before the column and its ``O`` just
+  after it;
+* each split row gets a valence-3 vertex ``Q`` at the Fermat point of its row's three
+  neighbours (its ``O`` on the shared line, its ``O`` on the far line and the first point of
+  the row's new middle line), so its three angles are exactly 120°;
+* the far ``O`` of each split row (a point with three quads of that row) is moved into the row
+  by about 0.62 of the row's height, so the far line bends there: its three angles are 60° plus
+  a share of the bend, the plain row on the other side takes the rest.
+
+Per pair, four quads in each split row replace two (coarse rows to the left of the column,
+fine rows to the right of it).  Pairs are separated by at least two plain rows and never touch
+a side of the cell, so each pair's four free points (the two far ``O``, the shared ``W`` and
+``O``) are placed independently: first by the measured template (in a rectangle, columns 1.5
+row heights away: every other angle within [67.5°, 112.5°]), then, if that leaves less than
+:data:`MIN_MARGIN` inside [60°, 120°] (graded rows, skewed cells), by a small optimisation
+(soft minimum, then SLSQP) of the smallest margin of the quads around the pair.  Everything
+outside the split column's two neighbouring columns is the bilinear grid of the cell (coarse
+rows before the column, fine rows after it), so those angles keep the bilinear guarantee of
+:mod:`quadmesh.cells`.
+
+Plane points are complex128.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import minimize
+
+from .errors import QuadmeshError
+from .geometry import quad_angles_deg
+
+__all__ = [
+    "COLUMN_GAP",
+    "FERMAT_ROOM",
+    "MIN_MARGIN",
+    "UNEVEN",
+    "TransitionError",
+    "TransitionMesh",
+    "coarse_rows",
+    "fermat_point",
+    "max_pairs",
+    "pair_rows",
+    "plan_pairs",
+    "transition_mesh",
+]
+
+#: Distance of the split column's neighbouring columns, in units of the largest height of a
+#: split row (the measured template has them 1.5 heights away; much farther, the middle lines
+#: leave the valence-3 vertices too flat and the angles at the shared line reach 60°/120°).
+COLUMN_GAP = 1.5
+
+#: Largest ratio of row heights among a pair's four fine rows and the plain row on each side
+#: that :func:`plan_pairs` accepts.
+UNEVEN = 1.6
+
+#: Smallest distance of a valence-3 vertex from its three neighbours, relative to the shortest
+#: side of their triangle.
+FERMAT_ROOM = 0.2
+
+#: Smallest margin (degrees) inside [60°, 120°] accepted for the angles a pair places (the
+#: exact 120° angles at the valence-3 vertices excepted).
+MIN_MARGIN = 1.0
+
+# Measured template of a pair in a rectangle with rows of height 1 and the neighbouring
+# columns 1.5 away (SLSQP optimum of the smallest margin: 7.5°): the far O of each split row
+# moves into its row by _BEND of the row's height; on the shared line W sits _W_BACK before
+# the column and O _O_AHEAD after it, in units of the mean height of the two rows.
+_BEND = 0.6213
+_W_BACK = 0.1569
+_O_AHEAD = 0.1791
+
+
+class TransitionError(QuadmeshError):
+    """A transition cell cannot be built with every angle in [60°, 120°]."""
+
+    stage = "cells"
+
+
+def fermat_point(
+    a: ArrayLike, b: ArrayLike, c: ArrayLike, refine: bool = True
+) -> NDArray[np.complex128]:
+    """Fermat (Torricelli) point of each triangle (a, b, c): the point seeing every side at
+    exactly 120°, for triangles with every angle below 120°.  It is the intersection of the
+    lines from a and b to the apexes of the equilateral triangles erected outwards on bc and ca,
+    then (``refine``) polished by Newton steps on the sum of the unit vectors from a, b, c."""
+    a, b, c = (np.asarray(x, dtype=np.complex128) for x in (a, b, c))
+    orient = np.sign(np.imag(np.conj(b - a) * (c - a)))
+    rot = np.exp(-1j * np.pi / 3 * orient)
+    e = b + (c - b) * rot
+    g = c + (a - c) * rot
+    d1, d2 = e - a, g - b
+    t = np.imag(np.conj(d2) * (b - a)) / np.imag(np.conj(d2) * d1)
+    q = a + t * d1
+    if not refine:
+        return q
+
+    # Newton steps on the sum of unit vectors (zero at the Fermat point), each kept only where
+    # it reduces that sum: the construction above loses digits in thin triangles, and the
+    # angles must read 120° to ~1e-12°
+    def resid(p: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], list]:
+        g = np.zeros_like(p)
+        parts = []
+        for v in (a, b, c):
+            d = p - v
+            r = np.abs(d)
+            w = d / r
+            g = g + w
+            parts.append((w, r))
+        return g, parts
+
+    for _ in range(3):
+        g, parts = resid(q)
+        hxx = sum((1.0 - w.real**2) / r for w, r in parts)
+        hxy = sum(-(w.real * w.imag) / r for w, r in parts)
+        hyy = sum((1.0 - w.imag**2) / r for w, r in parts)
+        det = hxx * hyy - hxy**2
+        step = ((hyy * g.real - hxy * g.imag) + 1j * (hxx * g.imag - hxy * g.real)) / det
+        cand = q - step
+        better = np.abs(resid(cand)[0]) < np.abs(g)
+        q = np.where(better & np.isfinite(cand), cand, q)
+    return q
+
+
+def max_pairs(k: int) -> int:
+    """Largest number of pairs a cell with ``k`` coarse rows can split: rows
+    P (F N P P)* … F N P, i.e. ``k // 4``."""
+    return max(0, int(k) // 4)
+
+
+def pair_rows(heights: ArrayLike, n_pairs: int) -> NDArray[np.int64]:
+    """The lower coarse row of each of ``n_pairs`` pairs among coarse rows of the given
+    ``heights`` (any positive weights), ascending: pairs never include the first or last row
+    and are separated by at least two plain rows; among the admissible choices the pairs go
+    where the two rows are thinnest (a dynamic programme over the rows: exact, O(k·n_pairs))."""
+    h = np.asarray(heights, dtype=np.float64)
+    k = h.size
+    if n_pairs < 0 or n_pairs > max_pairs(k):
+        raise ValueError(f"{n_pairs} pairs do not fit in {k} rows (at most {max_pairs(k)})")
+    if n_pairs == 0:
+        return np.zeros(0, dtype=np.int64)
+    # candidate pair at rows (i, i+1), i in 1..k-3; cost = the larger of the two heights
+    cand = np.full(k, np.inf)
+    cand[1 : k - 2] = np.maximum(h[1 : k - 2], h[2 : k - 1])
+    # best[p][i]: least total cost of p pairs whose last pair starts at row <= i
+    inf = np.inf
+    best = np.full((n_pairs + 1, k), inf)
+    best[0, :] = 0.0
+    take = np.zeros((n_pairs + 1, k), dtype=bool)
+    for p in range(1, n_pairs + 1):
+        for i in range(k):
+            prev = best[p, i - 1] if i > 0 else inf
+            # a pair at (i, i+1) needs the previous pair to start at row <= i - 4
+            before = best[p - 1, i - 4] if i >= 4 else (0.0 if p == 1 else inf)
+            here = before + cand[i]
+            if here < prev:
+                best[p, i], take[p, i] = here, True
+            else:
+                best[p, i] = prev
+    if not np.isfinite(best[n_pairs, k - 1]):
+        raise ValueError(f"{n_pairs} pairs do not fit in {k} rows")
+    out = []
+    p, i = n_pairs, k - 1
+    while p > 0:
+        if take[p, i]:
+            out.append(i)
+            p, i = p - 1, i - 4
+        else:
+            i -= 1
+    return np.array(out[::-1], dtype=np.int64)
+
+
+def coarse_rows(p_fine: ArrayLike, pairs: ArrayLike) -> tuple[NDArray[np.float64], str]:
+    """The coarse parameters and row kinds of a transition whose fine side carries
+    ``p_fine`` (k + 2·len(pairs) + 1 increasing values from 0 to 1) and whose pairs start at
+    the coarse rows ``pairs`` (from :func:`pair_rows` on the coarse rows).
+
+    Each split coarse row covers two fine rows; the fine value between them is dropped on the
+    coarse side (it starts the row's new middle line).  Returns ``(p_coarse, kinds)`` with
+    ``kinds[i]`` one of "P" (plain), "F", "N"."""
+    pf = np.asarray(p_fine, dtype=np.float64)
+    pairs = np.asarray(pairs, dtype=np.int64)
+    k = pf.size - 1 - 2 * pairs.size
+    kinds = ["P"] * k
+    for i in pairs:
+        kinds[i], kinds[i + 1] = "F", "N"
+    keep, f = [0], 0
+    for c in kinds:
+        f += 2 if c != "P" else 1
+        keep.append(f)
+    return pf[np.array(keep)], "".join(kinds)
+
+
+@dataclass(frozen=True)
+class TransitionMesh:
+    """The mesh of one transition cell.
+
+    Attributes:
+        points: (N,) complex points.
+        quads: (Q, 4) counter-clockwise point indices.
+        coarse: point indices on the coarse side (rung u = 0), p ascending.
+        fine: point indices on the fine side (rung u = 1), p ascending.
+        wall0: point indices along the side p = 0, u ascending (from the coarse side).
+        wall1: point indices along the side p = 1, u ascending.
+        u: the wall parameters of ``wall0`` and ``wall1`` (both walls carry the same).
+        margin: smallest distance (degrees) of the placed angles from 60° and 120° (the exact
+            120° angles at the valence-3 vertices excepted).
+    """
+
+    points: NDArray[np.complex128]
+    quads: NDArray[np.int64]
+    coarse: NDArray[np.int64]
+    fine: NDArray[np.int64]
+    wall0: NDArray[np.int64]
+    wall1: NDArray[np.int64]
+    u: NDArray[np.float64]
+    margin: float
+
+
+def _ruled(corners: NDArray[np.complex128], u: ArrayLike, p: ArrayLike) -> NDArray[np.complex128]:
+    """Points X(u, p) of the ruled cell with rungs c0 -> c3 (u = 0) and c1 -> c2 (u = 1), with
+    broadcasting of ``u`` and ``p``; evaluated relative to c0."""
+    c0, c1, c2, c3 = corners
+    u = np.asarray(u, dtype=np.float64)
+    p = np.asarray(p, dtype=np.float64)
+    return c0 + u * (c1 - c0) + p * (c3 - c0) + (u * p) * (c0 - c1 + c2 - c3)
+
+
+def _margin(z: NDArray[np.complex128], quads: NDArray[np.int64], exact: NDArray[np.bool_]) -> float:
+    """Smallest distance (degrees) of the angles of ``quads`` from 60° and 120°, the angles
+    flagged ``exact`` (at valence-3 vertices) left out."""
+    a = quad_angles_deg(z, quads)[~exact]
+    if a.size == 0:
+        return 90.0
+    return float(min((a - 60.0).min(), (120.0 - a).min()))
+
+
+def _fermat_room(z: NDArray[np.complex128], spec: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Per valence-3 vertex (rows of ``spec``: Q and its three neighbours), its distance to the
+    nearest neighbour over the shortest side of the neighbours' triangle, less
+    :data:`FERMAT_ROOM`, times 100 (so that it reads like a margin in degrees).  A Fermat point
+    crowding a neighbour makes a sliver whose 120° angles float64 cannot hold."""
+    if spec.size == 0:
+        return np.zeros(0)
+    q, x = z[spec[:, 0]], z[spec[:, 1:]]
+    near = np.abs(x - q[:, None]).min(axis=1)
+    side = np.abs(x - np.roll(x, 1, axis=1)).min(axis=1)
+    return 100.0 * (near / side - FERMAT_ROOM)
+
+
+def transition_mesh(
+    corners: ArrayLike,
+    p_fine: ArrayLike,
+    pairs: ArrayLike,
+    u: ArrayLike | None = None,
+    at: float = 0.5,
+) -> TransitionMesh:
+    """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
+    [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
+
+    ``p_fine``: the fine side's parameters (from c1 to c2, increasing from 0 to 1);
+    ``pairs``: lower coarse row of every pair (:func:`pair_rows`), which fixes the coarse
+    side's parameters (:func:`coarse_rows`); ``u``: wall parameters wanted on both walls
+    c0 -> c1 and c3 -> c2 (increasing from 0 to 1; default none inside); ``at``: where along
+    the cell (a wall parameter) the rows split.
+
+    The split column's two neighbouring columns are placed :data:`COLUMN_GAP` times the pairs'
+    largest row height before and after it (wanted wall parameters closer to it than that are
+    dropped), so the walls carry ``u`` plus these three values: the walls' actual points are
+    returned in :attr:`TransitionMesh.wall0` and :attr:`TransitionMesh.wall1`.
+
+    Raises :class:`TransitionError` if some angle cannot be kept in [60°, 120°] with at least
+    :data:`MIN_MARGIN` to spare (the exact 120° angles at the valence-3 vertices excepted)."""
+    cn = np.asarray(corners, dtype=np.complex128)
+    pf = np.asarray(p_fine, dtype=np.float64)
+    pairs = np.asarray(pairs, dtype=np.int64)
+    pc, kinds = coarse_rows(pf, pairs)
+    k = pc.size - 1
+    if not 0.0 < at < 1.0:
+        raise ValueError("the split must lie inside the cell (0 < at < 1)")
+    # the split column and its neighbours, COLUMN_GAP pair heights away
+    lines = _ruled(cn, at, pc)
+    gap = 0.0
+    if pairs.size:
+        h = np.abs(np.diff(lines))
+        gap = COLUMN_GAP * float(np.maximum(h[pairs], h[pairs + 1]).max())
+    du_len = float(np.abs(_ruled(cn, 1.0, pc) - _ruled(cn, 0.0, pc)).min())
+    du = gap / du_len
+    want = np.array([0.0, 1.0]) if u is None else np.asarray(u, dtype=np.float64)
+    if want[0] != 0.0 or want[-1] != 1.0 or np.any(np.diff(want) <= 0):
+        raise ValueError("u must increase from 0 to 1")
+    lo, hi = at - du, at + du
+    if lo <= 0.0 or hi >= 1.0:
+        raise TransitionError(
+            f"a transition cell from {k} to {pf.size - 1} rows needs {2 * gap:.3g} of length "
+            f"along the cell around its split; the cell is too short"
+        )
+    keep = want[(want < lo - 0.25 * du) | (want > hi + 0.25 * du)]
+    u = np.unique(np.concatenate([keep, [lo, at, hi]]))
+    column = int(np.flatnonzero(u == at)[0])
+    # fine index of every coarse line and of every split row's middle line
+    line_f = np.zeros(k + 1, dtype=np.int64)
+    mid_f = np.full(k, -1, dtype=np.int64)
+    f = 0
+    for i, c in enumerate(kinds):
+        if c != "P":
+            mid_f[i] = f + 1
+            f += 2
+        else:
+            f += 1
+        line_f[i + 1] = f
+
+    pts: list[NDArray[np.complex128]] = []
+    count = 0
+
+    def new(z: NDArray[np.complex128]) -> NDArray[np.int64]:
+        nonlocal count
+        z = np.asarray(z, dtype=np.complex128)
+        ids = np.arange(count, count + z.size).reshape(z.shape)
+        pts.append(z.ravel())
+        count += z.size
+        return ids
+
+    # coarse grid: columns 0..column-1 on the coarse lines; fine grid: columns column+1..m
+    coarse_ids = new(_ruled(cn, u[None, :column], pc[:, None]))  # (k+1, column)
+    fine_ids = new(_ruled(cn, u[None, column + 1 :], pf[:, None]))  # (kf+1, m-column)
+    # split column: O on every coarse line (moved below), W on the lines shared by a pair
+    o_base = _ruled(cn, u[column], pc)
+    o_ids = new(o_base.copy())
+    w_line = pairs + 1
+    w_ids = new(_ruled(cn, u[column], pc[w_line]))
+    z = np.concatenate(pts)
+    # corners of the cell exactly
+    z[coarse_ids[0, 0]], z[coarse_ids[-1, 0]] = cn[0], cn[3]
+    z[fine_ids[0, -1]], z[fine_ids[-1, -1]] = cn[1], cn[2]
+
+    # valence-3 vertices, one per split row
+    split = np.flatnonzero(np.array([c != "P" for c in kinds], dtype=bool))
+    q_ids = np.arange(count, count + split.size)
+    z = np.concatenate([z, np.zeros(split.size, dtype=np.complex128)])
+    count += split.size
+    q_of = dict(zip(split.tolist(), q_ids.tolist()))
+
+    a_col = coarse_ids[:, -1]  # column - 1 on the coarse lines
+    r_col = fine_ids[:, 0]  # column + 1 on the fine lines
+    w_of = dict(zip(w_line.tolist(), w_ids.tolist()))
+    quads: list[tuple[int, int, int, int]] = []
+    # per split row: (Q, shared O, middle M, far O)
+    fermat_spec: list[tuple[int, int, int, int]] = []
+    for i, c in enumerate(kinds):
+        ab, at = a_col[i], a_col[i + 1]
+        ob, ot = o_ids[i], o_ids[i + 1]
+        if c == "P":
+            if i in w_of or i + 1 in w_of:  # never: W lines lie inside pairs
+                raise AssertionError("W on a plain row")
+            quads.append((ab, ob, ot, at))
+            quads.append((ob, r_col[line_f[i]], r_col[line_f[i + 1]], ot))
+            continue
+        q, mm = q_of[i], r_col[mid_f[i]]
+        rb, rt = r_col[line_f[i]], r_col[line_f[i + 1]]
+        if c == "N":
+            w = w_of[i]
+            quads += [(ab, w, ot, at), (w, ob, q, ot), (ob, rb, mm, q), (q, mm, rt, ot)]
+            fermat_spec.append((q, ob, mm, ot))
+        else:
+            w = w_of[i + 1]
+            quads += [(ab, ob, w, at), (ob, q, ot, w), (q, mm, rt, ot), (ob, rb, mm, q)]
+            fermat_spec.append((q, ot, mm, ob))
+
+    # bilinear parts
+    def grid(ids: NDArray[np.int64]) -> NDArray[np.int64]:
+        return np.stack([ids[:-1, :-1], ids[:-1, 1:], ids[1:, 1:], ids[1:, :-1]], axis=-1).reshape(
+            -1, 4
+        )
+
+    quad_arr = np.concatenate(
+        [
+            grid(coarse_ids).reshape(-1, 4),
+            np.array(quads, dtype=np.int64).reshape(-1, 4),
+            grid(fine_ids).reshape(-1, 4),
+        ]
+    )
+    spec = np.array(fermat_spec, dtype=np.int64).reshape(-1, 4)
+
+    def place_q(zz: NDArray[np.complex128]) -> None:
+        zz[spec[:, 0]] = fermat_point(zz[spec[:, 1]], zz[spec[:, 2]], zz[spec[:, 3]])
+
+    # template placement of every pair
+    speed = np.abs(_ruled(cn, u[column] + 1e-6, pc) - o_base) / 1e-6  # |dX/du| on each line
+    i0 = pairs
+    i1, i2 = pairs + 1, pairs + 2
+    h_lo = np.abs(o_base[i1] - o_base[i0])
+    h_hi = np.abs(o_base[i2] - o_base[i1])
+    h_mid = 0.5 * (h_lo + h_hi)
+    z[o_ids[i0]] = _ruled(cn, u[column], pc[i0] + _BEND * (pc[i1] - pc[i0]))
+    z[o_ids[i2]] = _ruled(cn, u[column], pc[i2] - _BEND * (pc[i2] - pc[i1]))
+    z[w_ids] = _ruled(cn, u[column] - _W_BACK * h_mid / speed[i1], pc[i1])
+    z[o_ids[i1]] = _ruled(cn, u[column] + _O_AHEAD * h_mid / speed[i1], pc[i1])
+    place_q(z)
+
+    exact_all = np.isin(quad_arr, q_ids)
+    # per pair: the quads around its free points; polish the pairs that miss MIN_MARGIN
+    free_sets = np.stack([o_ids[i0], w_ids, o_ids[i1], o_ids[i2]], axis=1)
+    for g in range(pairs.size):
+        free = free_sets[g]
+        rows = np.array([2 * g, 2 * g + 1])  # this pair's two split rows in ``spec``
+        qs = spec[rows, 0]
+        near = np.isin(quad_arr, np.concatenate([free, qs])).any(axis=1)
+        lq, ex = quad_arr[near], exact_all[near]
+        if min(_margin(z, lq, ex), _fermat_room(z, spec[rows]).min()) >= MIN_MARGIN:
+            continue
+        z = _polish(z, lq, ex, free, spec[rows])
+    margin = _margin(z, quad_arr, exact_all)
+    room = _fermat_room(z, spec)
+    if room.size and room.min() < MIN_MARGIN:
+        raise TransitionError(
+            f"a transition cell from {k} to {pf.size - 1} rows leaves a valence-3 vertex too "
+            "close to a neighbour; it needs more room along the cell for its rows"
+        )
+    if not margin >= MIN_MARGIN:
+        raise TransitionError(
+            f"a transition cell from {k} to {pf.size - 1} rows keeps its angles only within "
+            f"{margin:.3g}° of [60°, 120°]; it needs more room along the cell for its rows"
+        )
+    wall0 = np.concatenate([coarse_ids[0], [o_ids[0]], fine_ids[0]])
+    wall1 = np.concatenate([coarse_ids[-1], [o_ids[-1]], fine_ids[-1]])
+    return TransitionMesh(
+        points=z,
+        quads=quad_arr,
+        coarse=coarse_ids[:, 0].copy(),
+        fine=fine_ids[:, -1].copy(),
+        wall0=wall0,
+        wall1=wall1,
+        u=u,
+        margin=margin,
+    )
+
+
+def _polish(
+    z: NDArray[np.complex128],
+    quads: NDArray[np.int64],
+    exact: NDArray[np.bool_],
+    free: NDArray[np.int64],
+    spec: NDArray[np.int64],
+) -> NDArray[np.complex128]:
+    """Move the ``free`` points (the Fermat points of ``spec`` following them) to maximise the
+    smallest margin of the angles of ``quads`` inside [60°, 120°].
+
+    A soft minimum of the margins (log-sum-exp at temperatures 3°, 1°, 0.3°, BFGS) leads to
+    the neighbourhood of the best placement, then SLSQP on the epigraph form (maximise t with
+    every margin ≥ t) finishes it; the template start is tried first, then one jittered
+    start.  Offsets are measured in the pair's row height."""
+    z = z.copy()
+    base = z[free].copy()
+    h = float(np.abs(z[spec[:, 1]] - z[spec[:, 3]]).max())
+    nf = free.size
+
+    def at(x: NDArray[np.float64]) -> NDArray[np.complex128]:
+        zz = z.copy()
+        zz[free] = base + h * (x[:nf] + 1j * x[nf : 2 * nf])
+        zz[spec[:, 0]] = fermat_point(zz[spec[:, 1]], zz[spec[:, 2]], zz[spec[:, 3]], refine=False)
+        return zz
+
+    def margins(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        zz = at(x)
+        a = quad_angles_deg(zz, quads)[~exact]
+        m = np.concatenate([a - 60.0, 120.0 - a, _fermat_room(zz, spec)])
+        return np.where(np.isfinite(m), m, -180.0)
+
+    def soft(x: NDArray[np.float64], tau: float) -> float:
+        m = margins(x)
+        lo = m.min()
+        return -(lo - tau * np.log(np.sum(np.exp(-(m - lo) / tau))))
+
+    rng = np.random.default_rng(0)
+    best_x, best_m = np.zeros(2 * nf), float(margins(np.zeros(2 * nf)).min())
+    for trial in range(2):
+        x = np.zeros(2 * nf) if trial == 0 else 0.1 * rng.standard_normal(2 * nf)
+        for tau in (2.0, 0.5):
+            x = minimize(soft, x, args=(tau,), method="BFGS", options={"maxiter": 60}).x
+        x0 = np.concatenate([x, [margins(x).min()]])
+        res = minimize(
+            lambda v: -v[-1],
+            x0,
+            jac=lambda v: np.concatenate([np.zeros(v.size - 1), [-1.0]]),
+            constraints=[{"type": "ineq", "fun": lambda v: margins(v[:-1]) - v[-1]}],
+            method="SLSQP",
+            options={"maxiter": 60, "ftol": 1e-10},
+        )
+        for cand in (x, res.x[:-1]):
+            m = float(margins(cand).min())
+            if m > best_m:
+                best_x, best_m = cand, m
+        if best_m >= 3 * MIN_MARGIN:
+            break
+    out = at(best_x)
+    out[spec[:, 0]] = fermat_point(out[spec[:, 1]], out[spec[:, 2]], out[spec[:, 3]])
+    return out
+
+
+def plan_pairs(p_fine: ArrayLike, n_pairs: int, spread: float = 1.8) -> NDArray[np.int64]:
+    """Lower coarse row of each of at most ``n_pairs`` pairs for a transition whose fine side
+    carries ``p_fine``: pairs go where the fine rows are thinnest, all within a factor
+    ``spread`` of the thickest one chosen (their split column's neighbours are placed by the
+    thickest, and a pair much thinner than that leaves its middle lines too flat).
+
+    In fine rows a pair covers four consecutive rows; at least one plain row lies below the
+    first pair and above the last, and two between pairs.  Returns coarse row indices
+    (:func:`coarse_rows` order), possibly fewer than ``n_pairs``."""
+    pf = np.asarray(p_fine, dtype=np.float64)
+    h = np.diff(pf)
+    kf = h.size
+    if kf < 6 or n_pairs <= 0:
+        return np.zeros(0, dtype=np.int64)
+    # candidate pair starting at fine row f covers f..f+3; needs f >= 1 and f + 4 <= kf - 1
+    starts = np.arange(1, kf - 4)
+    if starts.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    around = np.stack([h[starts + j] for j in range(-1, 5)])  # the pair and a plain row each side
+    cost = around[1:5].max(axis=0)
+    # the template is measured on rows of equal height: keep to places graded by at most UNEVEN
+    cost = np.where(around.max(axis=0) <= UNEVEN * around.min(axis=0), cost, np.inf)
+    order = np.argsort(cost, kind="stable")
+    chosen: list[int] = []
+    taken = np.zeros(kf + 8, dtype=bool)
+    top = None
+    for o in order:
+        f = int(starts[o])
+        if not np.isfinite(cost[o]) or (top is not None and cost[o] > spread * top):
+            break
+        # rows f-2 .. f+5 must be free of other pairs (two plain rows between pairs)
+        if taken[max(0, f - 2) : f + 6].any():
+            continue
+        chosen.append(f)
+        taken[f : f + 4] = True
+        if top is None:
+            top = float(cost[o])
+        if len(chosen) == n_pairs:
+            break
+    chosen.sort()
+    # fine start -> coarse row index: every earlier pair takes 4 fine rows for 2 coarse rows
+    return np.array([f - 2 * j for j, f in enumerate(chosen)], dtype=np.int64)

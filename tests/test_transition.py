@@ -1,0 +1,155 @@
+"""Transition cells (quadmesh.transition): a convex cell whose two opposite sides carry
+different point counts, every angle in [60°, 120°].  Checked independently in plain numpy:
+angles from the coordinates, conformity by edge counts, areas, the sides' points."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from quadmesh.cells import cell_is_admissible
+from quadmesh.transition import (
+    TransitionError,
+    coarse_rows,
+    fermat_point,
+    max_pairs,
+    pair_rows,
+    plan_pairs,
+    transition_mesh,
+)
+
+TOL = 1e-6  # degrees: float64 rounding of rows down to 1e-6 of the cell, never more
+
+
+def _angles(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    p = z[quads]
+    nxt = np.roll(p, -1, axis=1) - p
+    prv = np.roll(p, 1, axis=1) - p
+    return np.degrees(np.angle(prv / nxt)) % 360.0
+
+
+def _edge_counts(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    e = np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2)
+    return np.unique(np.sort(e, axis=1), axis=0, return_counts=True)
+
+
+def _area(poly: np.ndarray) -> float:
+    return 0.5 * float(np.imag(np.sum(np.conj(poly) * np.roll(poly, -1))))
+
+
+def _check(tm, corners: np.ndarray, p_fine: np.ndarray, pairs: np.ndarray) -> None:
+    z, quads = tm.points, tm.quads
+    a = _angles(z, quads)
+    assert a.min() >= 60.0 - TOL and a.max() <= 120.0 + TOL
+    # positively oriented, areas add up to the cell's
+    p = z[quads]
+    areas = 0.5 * np.imag(np.sum(np.conj(p) * np.roll(p, -1, axis=1), axis=1))
+    assert areas.min() > 0
+    assert abs(areas.sum() - _area(corners)) <= 1e-12 * abs(_area(corners))
+    # conforming: every edge in one or two quads; the edges in one quad are the cell's boundary
+    edges, cnt = _edge_counts(quads)
+    assert cnt.max() == 2
+    ring = np.concatenate([tm.wall0, tm.fine[1:], tm.wall1[::-1][1:], tm.coarse[::-1][1:-1]])
+    bnd = np.sort(np.stack([ring, np.roll(ring, -1)], axis=1), axis=1)
+    assert {tuple(e) for e in edges[cnt == 1]} == {tuple(e) for e in bnd}
+    # the sides carry exactly the given parameters (coarse: the fine ones without the middles)
+    c0, c1, c2, c3 = corners
+    pc, _ = coarse_rows(p_fine, pairs)
+    assert np.allclose(z[tm.coarse], c0 + pc * (c3 - c0), rtol=0, atol=1e-14)
+    assert np.allclose(z[tm.fine], c1 + p_fine * (c2 - c1), rtol=0, atol=1e-14)
+    # one valence-3 interior vertex per split row, its three angles exactly 120°
+    inner = np.setdiff1d(np.arange(z.size), ring)
+    val = np.bincount(quads.ravel(), minlength=z.size)
+    v3 = inner[val[inner] == 3]
+    assert v3.size == 2 * pairs.size
+    at_v3 = a[np.isin(quads, v3)]
+    assert np.abs(at_v3 - 120.0).max() <= TOL
+
+
+def test_fermat_point_sees_every_side_at_120_degrees():
+    rng = np.random.default_rng(3)
+    done = 0
+    while done < 300:
+        a, b, c = rng.normal(size=3) + 1j * rng.normal(size=3)
+        ang = [
+            abs(np.degrees(np.angle((y - x) / (w - x))))
+            for x, y, w in ((a, b, c), (b, c, a), (c, a, b))
+        ]
+        if max(ang) >= 115 or min(ang) < 5:
+            continue
+        q = fermat_point(a, b, c)
+        seen = [abs(np.degrees(np.angle((x - q) / (y - q)))) for x, y in ((a, b), (b, c), (c, a))]
+        assert np.allclose(seen, 120.0, atol=1e-10)
+        done += 1
+
+
+def test_rectangle_sixteen_to_twenty_two_rows():
+    corners = np.array([0, 4, 4 + 2j, 2j])
+    p_fine = np.linspace(0.0, 1.0, 23)
+    pairs = pair_rows(np.ones(22 - 6), 3)
+    tm = transition_mesh(corners, p_fine, pairs, np.linspace(0, 1, 5))
+    _check(tm, corners, p_fine, pairs)
+    assert tm.margin >= 7.0  # the measured template: every other angle in [67.5°, 112.5°]
+    assert tm.coarse.size == 17 and tm.fine.size == 23
+
+
+def test_pairs_are_planned_apart_and_off_the_sides():
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        kf = int(rng.integers(6, 90))
+        p = np.r_[0.0, np.sort(rng.uniform(0, 1, kf - 1)), 1.0] ** rng.uniform(0.5, 2)
+        pairs = plan_pairs(p, int(rng.integers(1, 12)))
+        k = kf - 2 * pairs.size
+        _, kinds = coarse_rows(p, pairs)
+        assert len(kinds) == k and kinds[0] == "P" and kinds[-1] == "P"
+        assert kinds.replace("P", "") == "FN" * pairs.size
+        # two plain rows between pairs
+        assert all(b - a >= 4 for a, b in itertools.pairwise(pairs))
+        assert pairs.size <= max_pairs(k)
+    with pytest.raises(ValueError):
+        pair_rows(np.ones(7), 2)
+
+
+def test_random_convex_cells_sweep():
+    """Random convex cells (corners in [61°, 119°]), 8–80 fine rows with any spacing, 1–6
+    pairs: each either meshes with every angle in range or refuses with TransitionError; a
+    large majority mesh."""
+    rng = np.random.default_rng(7)
+    ok = refused = 0
+    while ok + refused < 60:
+        length = rng.uniform(0.8, 8.0)
+        corners = np.array([0, length, length + 1j, 1j]) + (
+            rng.uniform(-0.25, 0.25, 4) + 1j * rng.uniform(-0.25, 0.25, 4)
+        )
+        if not cell_is_admissible(corners, 1.0):
+            continue
+        kf = int(rng.integers(8, 80))
+        if rng.random() < 0.3:
+            inner = np.sort(rng.uniform(0, 1, kf - 1))
+        else:
+            inner = np.linspace(0, 1, kf + 1)[1:-1]
+        p_fine = np.r_[0.0, inner, 1.0]
+        if rng.random() < 0.5:
+            p_fine = p_fine ** rng.uniform(0.5, 2.0)
+        pairs = plan_pairs(p_fine, int(rng.integers(1, 7)))
+        if pairs.size == 0:
+            continue
+        u = np.linspace(0, 1, int(rng.integers(2, 9)))
+        try:
+            tm = transition_mesh(corners, p_fine, pairs, u, at=rng.uniform(0.3, 0.7))
+        except TransitionError as exc:
+            assert "rows" in str(exc)
+            refused += 1
+            continue
+        _check(tm, corners, p_fine, pairs)
+        ok += 1
+    assert ok >= 45, (ok, refused)
+
+
+def test_too_short_a_cell_is_refused_with_a_reason():
+    corners = np.array([0, 0.5, 0.5 + 1j, 1j])
+    p_fine = np.linspace(0, 1, 11)
+    with pytest.raises(TransitionError, match="too short"):
+        transition_mesh(corners, p_fine, pair_rows(np.ones(8), 1))
