@@ -145,6 +145,7 @@ def test_random_convex_cells_sweep():
             continue
         _check(tm, corners, p_fine, pairs)
         ok += 1
+    print(f"transition sweep: {ok} meshed, {refused} refused")
     assert ok >= 45, (ok, refused)
 
 
