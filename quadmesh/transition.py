@@ -59,6 +59,7 @@ __all__ = [
     "max_pairs",
     "pair_rows",
     "plan_pairs",
+    "transition_cascade",
     "transition_mesh",
 ]
 
@@ -74,6 +75,10 @@ UNEVEN = 1.6
 #: Smallest distance of a valence-3 vertex from its three neighbours, relative to the shortest
 #: side of their triangle.
 FERMAT_ROOM = 0.2
+
+#: A pair whose template placement misses [60°, 120°] by more than this (degrees) is not
+#: polished: the placement is folded, no local move repairs it.
+HOPELESS = 30.0
 
 #: Smallest margin (degrees) inside [60°, 120°] accepted for the angles a pair places (the
 #: exact 120° angles at the valence-3 vertices excepted).
@@ -220,6 +225,7 @@ class TransitionMesh:
         wall0: point indices along the side p = 0, u ascending (from the coarse side).
         wall1: point indices along the side p = 1, u ascending.
         u: the wall parameters of ``wall0`` and ``wall1`` (both walls carry the same).
+        p_coarse: the coarse side's parameters (from c0 to c3).
         margin: smallest distance (degrees) of the placed angles from 60° and 120° (the exact
             120° angles at the valence-3 vertices excepted).
     """
@@ -231,6 +237,7 @@ class TransitionMesh:
     wall0: NDArray[np.int64]
     wall1: NDArray[np.int64]
     u: NDArray[np.float64]
+    p_coarse: NDArray[np.float64]
     margin: float
 
 
@@ -271,6 +278,7 @@ def transition_mesh(
     pairs: ArrayLike,
     u: ArrayLike | None = None,
     at: float = 0.5,
+    p_coarse: ArrayLike | None = None,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
     [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
@@ -339,7 +347,12 @@ def transition_mesh(
         return ids
 
     # coarse grid: columns 0..column-1 on the coarse lines; fine grid: columns column+1..m
-    coarse_ids = new(_ruled(cn, u[None, :column], pc[:, None]))  # (k+1, column)
+    p_side = pc if p_coarse is None else np.asarray(p_coarse, dtype=np.float64)
+    if p_side.shape != pc.shape or p_side[0] != 0.0 or p_side[-1] != 1.0:
+        raise ValueError("p_coarse must have one value per coarse line, from 0 to 1")
+    w_u = u[:column] / u[column - 1]  # 0 on the coarse side, 1 at the split column's neighbour
+    p_grid = p_side[:, None] + (pc - p_side)[:, None] * w_u[None, :]
+    coarse_ids = new(_ruled(cn, u[None, :column], p_grid))  # (k+1, column)
     fine_ids = new(_ruled(cn, u[None, column + 1 :], pf[:, None]))  # (kf+1, m-column)
     # split column: O on every coarse line (moved below), W on the lines shared by a pair
     o_base = _ruled(cn, u[column], pc)
@@ -449,6 +462,7 @@ def transition_mesh(
         wall0=wall0,
         wall1=wall1,
         u=u,
+        p_coarse=p_side,
         margin=margin,
     )
 
@@ -467,7 +481,13 @@ def _polish(
     the neighbourhood of the best placement, then SLSQP on the epigraph form (maximise t with
     every margin ≥ t) finishes it; the template start is tried first, then one jittered
     start.  Offsets are measured in the pair's row height."""
-    z = z.copy()
+    # work on the few points involved, not on the whole cell's
+    local = np.unique(np.concatenate([quads.ravel(), free, spec.ravel()]))
+    pos = {int(v): i for i, v in enumerate(local)}
+    remap = np.vectorize(pos.__getitem__, otypes=[np.int64])
+    z_all = z
+    z = z_all[local].copy()
+    quads, free, spec = remap(quads), remap(free), remap(spec)
     base = z[free].copy()
     h = float(np.abs(z[spec[:, 1]] - z[spec[:, 3]]).max())
     nf = free.size
@@ -491,10 +511,15 @@ def _polish(
 
     rng = np.random.default_rng(0)
     best_x, best_m = np.zeros(2 * nf), float(margins(np.zeros(2 * nf)).min())
+    if best_m < -HOPELESS:
+        return z_all  # the template is far off (a folded pair): no local repair reaches it
     for trial in range(2):
         x = np.zeros(2 * nf) if trial == 0 else 0.1 * rng.standard_normal(2 * nf)
-        for tau in (2.0, 0.5):
-            x = minimize(soft, x, args=(tau,), method="BFGS", options={"maxiter": 60}).x
+        x = minimize(soft, x, args=(2.0,), method="BFGS", options={"maxiter": 40}).x
+        if margins(x).min() >= 3 * MIN_MARGIN:
+            best_x, best_m = x, float(margins(x).min())
+            break
+        x = minimize(soft, x, args=(0.5,), method="BFGS", options={"maxiter": 40}).x
         x0 = np.concatenate([x, [margins(x).min()]])
         res = minimize(
             lambda v: -v[-1],
@@ -502,7 +527,7 @@ def _polish(
             jac=lambda v: np.concatenate([np.zeros(v.size - 1), [-1.0]]),
             constraints=[{"type": "ineq", "fun": lambda v: margins(v[:-1]) - v[-1]}],
             method="SLSQP",
-            options={"maxiter": 60, "ftol": 1e-10},
+            options={"maxiter": 40, "ftol": 1e-10},
         )
         for cand in (x, res.x[:-1]):
             m = float(margins(cand).min())
@@ -510,8 +535,10 @@ def _polish(
                 best_x, best_m = cand, m
         if best_m >= 3 * MIN_MARGIN:
             break
-    out = at(best_x)
-    out[spec[:, 0]] = fermat_point(out[spec[:, 1]], out[spec[:, 2]], out[spec[:, 3]])
+    loc = at(best_x)
+    loc[spec[:, 0]] = fermat_point(loc[spec[:, 1]], loc[spec[:, 2]], loc[spec[:, 3]])
+    out = z_all.copy()
+    out[local] = loc
     return out
 
 
@@ -557,3 +584,167 @@ def plan_pairs(p_fine: ArrayLike, n_pairs: int, spread: float = 1.8) -> NDArray[
     chosen.sort()
     # fine start -> coarse row index: every earlier pair takes 4 fine rows for 2 coarse rows
     return np.array([f - 2 * j for j, f in enumerate(chosen)], dtype=np.int64)
+
+
+def _even_out(p: NDArray[np.float64], passes: int = 3) -> NDArray[np.float64]:
+    """``p`` (increasing from 0 to 1) with its inner values averaged with their neighbours
+    (weights 1/4, 1/2, 1/4) ``passes`` times: a stage's coarse rows alternate between one and
+    two fine rows, and the next stage's pairs want rows of nearly equal height."""
+    q = p.copy()
+    for _ in range(passes):
+        q[1:-1] = 0.25 * q[:-2] + 0.5 * q[1:-1] + 0.25 * q[2:]
+    return q
+
+
+#: Passes of neighbour averaging that even out a cascade's fine rows first, and the largest
+#: tilt (degrees) of a row line in the slice that does it.
+EVEN_PASSES = 40
+EVEN_TILT = 12.0
+
+#: Length of a cascade stage along the cell, in units of its split column's gap (the split
+#: column in the middle, its neighbours a gap away, room to spare on both sides).
+STAGE_LENGTH = 3.0
+
+
+def transition_cascade(
+    corners: ArrayLike,
+    p_fine: ArrayLike,
+    n_coarse: int,
+    partial: bool = False,
+    n_along: int = 1,
+) -> TransitionMesh:
+    """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
+    on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
+    transition stages, each a :func:`transition_mesh` of a slice of the cell along its walls
+    (the slices are bilinear sub-cells, so their corners stay in [60°, 120°]): from the fine
+    side, every stage splits as many pairs as :func:`plan_pairs` finds (never more than are
+    still needed) in a slice :data:`STAGE_LENGTH` gaps long; the rest of the cell towards the
+    coarse side is a bilinear grid of the coarse rows, ``n_along`` segments long (at least
+    one).  ``len(p_fine) - 1 - n_coarse`` must be even and non-negative.
+
+    With ``partial``, the cascade stops at the first stage that does not fit (or finds no
+    place to split) and the coarse side carries the rows reached so far
+    (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.
+
+    Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
+    the cell (without ``partial``)."""
+    cn = np.asarray(corners, dtype=np.complex128)
+    pf = np.asarray(p_fine, dtype=np.float64)
+    need = pf.size - 1 - int(n_coarse)
+    if need < 0 or need % 2:
+        raise TransitionError(
+            f"a cell cannot go from {pf.size - 1} to {n_coarse} rows by pairs of split rows"
+        )
+    stages: list[tuple[float, float, TransitionMesh]] = []
+    u_hi, q = 1.0, pf
+    want = (q.size - 1 - int(n_coarse)) // 2
+    # unevenly spaced fine rows (a mesh's points on a cut) are first evened out by a ruled
+    # slice that tilts every row line by at most EVEN_TILT degrees
+    h = np.diff(pf)
+    ratio = np.maximum(h[1:] / h[:-1], h[:-1] / h[1:]) if h.size > 1 else np.ones(1)
+    if want > 0 and ratio.max() > UNEVEN:
+        q_even = _even_out(pf, EVEN_PASSES)
+        width = float(np.abs(cn[2] - cn[1]))
+        along = float(min(abs(cn[1] - cn[0]), abs(cn[2] - cn[3])))
+        du = float(np.abs(q_even - pf).max()) * width / np.tan(np.radians(EVEN_TILT)) / along
+        if 0.0 < du < 0.5:
+            sub = _ruled(cn, np.array([1.0 - du, 1.0, 1.0, 1.0 - du]), np.array([0, 0, 1.0, 1]))
+            grid = _ruled(sub, np.array([0.0, 1.0])[None, :], np.stack([q_even, pf], axis=1))
+            zz = grid.ravel()
+            gid = np.arange(zz.size).reshape(grid.shape)
+            qd = np.stack([gid[:-1, 0], gid[:-1, 1], gid[1:, 1], gid[1:, 0]], axis=-1)
+            m = _margin(zz, qd, np.zeros(qd.shape, dtype=bool))
+            if m >= MIN_MARGIN:
+                tm = TransitionMesh(
+                    points=zz,
+                    quads=qd,
+                    coarse=gid[:, 0].copy(),
+                    fine=gid[:, 1].copy(),
+                    wall0=gid[0].copy(),
+                    wall1=gid[-1].copy(),
+                    u=np.array([0.0, 1.0]),
+                    p_coarse=q_even,
+                    margin=m,
+                )
+                stages.append((1.0 - du, 1.0, tm))
+                u_hi, q = 1.0 - du, q_even
+    while q.size - 1 > n_coarse:
+        pairs = plan_pairs(q, min(want, (q.size - 1 - int(n_coarse)) // 2))
+        if pairs.size == 0:
+            if partial:
+                break
+            raise TransitionError(
+                f"no place to split rows between {q.size - 1} and {n_coarse} rows across "
+                "(rows too unevenly spaced)"
+            )
+        pc, _ = coarse_rows(q, pairs)
+        h = np.abs(np.diff(_ruled(cn, u_hi, pc)))
+        gap = COLUMN_GAP * float(np.maximum(h[pairs], h[pairs + 1]).max())
+        along = float(np.abs(_ruled(cn, 1.0, pc) - _ruled(cn, 0.0, pc)).min())
+        du = STAGE_LENGTH * gap / along
+        if du >= u_hi:
+            if partial:
+                break
+            raise TransitionError(
+                f"a cell is too short to go from {pf.size - 1} to {n_coarse} rows across"
+            )
+        lo = u_hi - du
+        sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
+        try:
+            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc))
+        except TransitionError:
+            if not partial:
+                raise
+            if pairs.size == 1:
+                break
+            want = pairs.size // 2  # fewer pairs at a time: the thinnest, most even rows
+            continue
+        stages.append((lo, u_hi, tm))
+        u_hi, q = lo, tm.p_coarse
+    # assemble: the coarse bilinear part, then the stages towards the fine side
+    pts: list[NDArray[np.complex128]] = []
+    quads: list[NDArray[np.int64]] = []
+    count = 0
+    margin = 90.0
+    # coarse part: u in [0, u_hi] with rows q
+    sub = _ruled(cn, np.array([0.0, u_hi, u_hi, 0.0]), np.array([0.0, 0.0, 1.0, 1.0]))
+    grid = _ruled(sub, np.linspace(0.0, 1.0, max(1, int(n_along)) + 1)[None, :], q[:, None])
+    gid = np.arange(grid.size).reshape(grid.shape)
+    pts.append(grid.ravel())
+    count = grid.size
+    quads.append(
+        np.stack([gid[:-1, :-1], gid[:-1, 1:], gid[1:, 1:], gid[1:, :-1]], axis=-1).reshape(-1, 4)
+    )
+    coarse = gid[:, 0].copy()
+    prev_side = gid[:, -1].copy()  # ids on u = u_hi
+    wall0 = gid[0].tolist()
+    wall1 = gid[-1].tolist()
+    u_walls = np.linspace(0.0, u_hi, gid.shape[1]).tolist()
+    p_coarse = q
+    for lo, hi, tm in reversed(stages):
+        margin = min(margin, tm.margin)
+        ids = np.full(tm.points.size, -1, dtype=np.int64)
+        ids[tm.coarse] = prev_side
+        own = ids < 0
+        ids[own] = count + np.arange(int(own.sum()))
+        pts.append(tm.points[own])
+        count += int(own.sum())
+        quads.append(ids[tm.quads])
+        prev_side = ids[tm.fine]
+        wall0 += ids[tm.wall0[1:]].tolist()
+        wall1 += ids[tm.wall1[1:]].tolist()
+        u_walls += (lo + (hi - lo) * tm.u[1:]).tolist()
+    z = np.concatenate(pts)
+    z[coarse[0]], z[coarse[-1]] = cn[0], cn[3]
+    z[prev_side[0]], z[prev_side[-1]] = cn[1], cn[2]
+    return TransitionMesh(
+        points=z,
+        quads=np.concatenate(quads),
+        coarse=coarse,
+        fine=prev_side,
+        wall0=np.array(wall0, dtype=np.int64),
+        wall1=np.array(wall1, dtype=np.int64),
+        u=np.array(u_walls),
+        p_coarse=p_coarse,
+        margin=margin,
+    )

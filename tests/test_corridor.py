@@ -185,6 +185,10 @@ def test_an_arm_is_a_corridor_glued_to_the_body(length):
     cut_ids = arm.global_index[arm.mesh.cut]
     body_quads = r.mesh.quads[np.asarray(r.quad_source) != 3]
     assert np.isin(cut_ids, body_quads).all()
+    if length == 6.0:
+        # transition cascades next to the cut take the body's ~150 points across down to the
+        # arm's own count (measured: 9,464 arm quads; 20,150 carrying the cut's points along)
+        assert len(arm.mesh.quads) < 12_000
 
 
 def _zigzag_stroke(run: float) -> np.ndarray:

@@ -17,6 +17,7 @@ from quadmesh.transition import (
     max_pairs,
     pair_rows,
     plan_pairs,
+    transition_cascade,
     transition_mesh,
 )
 
@@ -154,3 +155,40 @@ def test_too_short_a_cell_is_refused_with_a_reason():
     p_fine = np.linspace(0, 1, 11)
     with pytest.raises(TransitionError, match="too short"):
         transition_mesh(corners, p_fine, pair_rows(np.ones(8), 1))
+
+
+@pytest.mark.parametrize(
+    ("length", "fine", "coarse", "grading"), [(4.0, 40, 10, 1.0), (4.0, 60, 20, 1.5)]
+)
+def test_cascade_goes_down_to_the_coarse_count(length, fine, coarse, grading):
+    """Stages of pairs, each in its own slice of the cell, from ``fine`` rows down to exactly
+    ``coarse``: conforming, areas exact, every angle in range, the sides' points as given."""
+    corners = np.array([0, length, length + 1j, 1j])
+    p_fine = np.linspace(0.0, 1.0, fine + 1) ** grading
+    tm = transition_cascade(corners, p_fine, coarse, n_along=3)
+    z, quads = tm.points, tm.quads
+    a = _angles(z, quads)
+    assert a.min() >= 60.0 - TOL and a.max() <= 120.0 + TOL
+    p = z[quads]
+    areas = 0.5 * np.imag(np.sum(np.conj(p) * np.roll(p, -1, axis=1), axis=1))
+    assert areas.min() > 0
+    assert abs(areas.sum() - _area(corners)) <= 1e-12 * _area(corners)
+    edges, cnt = _edge_counts(quads)
+    assert cnt.max() == 2
+    ring = np.concatenate([tm.wall0, tm.fine[1:], tm.wall1[::-1][1:], tm.coarse[::-1][1:-1]])
+    bnd = np.sort(np.stack([ring, np.roll(ring, -1)], axis=1), axis=1)
+    assert {tuple(e) for e in edges[cnt == 1]} == {tuple(e) for e in bnd}
+    assert tm.coarse.size == coarse + 1 and tm.fine.size == fine + 1
+    assert np.allclose(z[tm.fine], corners[1] + p_fine * (corners[2] - corners[1]), atol=1e-14)
+    assert np.allclose(z[tm.coarse], corners[0] + tm.p_coarse * (corners[3] - corners[0]))
+
+
+def test_cascade_refuses_a_short_cell_or_an_odd_difference():
+    corners = np.array([0, 1, 1 + 1j, 1j])
+    with pytest.raises(TransitionError):
+        transition_cascade(corners, np.linspace(0, 1, 41), 10)
+    with pytest.raises(TransitionError, match="pairs"):
+        transition_cascade(corners, np.linspace(0, 1, 12), 10)
+    # partial: as far as it fits, the coarse side carrying what was reached
+    tm = transition_cascade(corners, np.linspace(0, 1, 41), 10, partial=True)
+    assert 10 < tm.coarse.size - 1 <= 40 and (40 - (tm.coarse.size - 1)) % 2 == 0

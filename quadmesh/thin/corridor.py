@@ -47,6 +47,7 @@ from scipy.spatial import cKDTree
 from ..errors import ThinPartError
 from ..polygon import interior_angles
 from ..progress import checkpoint
+from ..transition import TransitionError, transition_cascade
 
 __all__ = ["CorridorLayout", "corridor_tips", "ladder_layout"]
 
@@ -782,10 +783,15 @@ def _mesh_layout(
     extra_fixed: dict[int, np.ndarray],
     max_size: float | None = None,
     sector_chords: int = 16,
+    transitions: bool = False,
 ) -> CorridorMesh:
     """Refine a ladder layout of the polygon ``z`` (sectors built, rungs' points fixed by
     them and by ``extra_fixed``, runs refined and glued) into a :class:`CorridorMesh`: about
-    ``across`` segments per median rung, segments no longer than ``max_size`` where given."""
+    ``across`` segments per median rung, segments no longer than ``max_size`` where given.
+
+    ``transitions``: the sectors keep their own counts instead of taking those of the
+    ``extra_fixed`` rungs, and a run joining a rung of ``extra_fixed`` to a sector with fewer
+    points changes its count by a transition cascade (:func:`_run_params`)."""
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
     if max_size is not None:
@@ -828,7 +834,9 @@ def _mesh_layout(
             _sector_sides(V, o, g, kind, m, rung_index, a)
             for (o, g, kind), m, a in zip(structs, base, apexes)
         ]
-        plan = _plan_sector_rows(lay, sides, {k: p.size for k, p in extra_fixed.items()})
+        plan = _plan_sector_rows(
+            lay, sides, {} if transitions else {k: p.size for k, p in extra_fixed.items()}
+        )
         for (o, g, kind), rows, n in zip(structs, plan, n_pts):
             m = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows)
             a_ = m[4]
@@ -862,7 +870,9 @@ def _mesh_layout(
         if k in fixed:
             raise ThinPartError("a sector of the corridor sits where it meets the rest")
         fixed[k] = par
-    pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()))
+    pts, quads, cell, rung_ids = _refine_ladder(
+        lay, size, fixed, set(tips.tolist()), transitions
+    )
     for k_s, (m, entries) in enumerate(built):
         gp, gamma_ids, allp, sq, _a, _s1, _s2 = m
         n_pts = gp.size
@@ -1119,7 +1129,12 @@ def _plan_sector_rows(
     return plan
 
 
-def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) -> list[np.ndarray]:
+def _run_params(
+    lay: CorridorLayout,
+    size: float,
+    fixed: dict[int, np.ndarray],
+    cascades: dict | None = None,
+) -> list[np.ndarray]:
     """Parameters (0 … 1 from the L end to the R end) of the points on every rung.
 
     Consecutive rungs joined by a ladder cell form a *run*; the cells of a run are refined
@@ -1142,6 +1157,64 @@ def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) 
             continue
         p0 = fixed[ends[0]]
         p1 = fixed[ends[-1]]
+        cnt = max(1, int(np.ceil(rl[run].max() / size)))
+        if len(ends) == 1 and cascades is not None and run.size >= 2 and p0.size - 1 > cnt + 1:
+            # one fixed end carrying more points than the run needs: transition cascades
+            # from it, cell by cell, down to about the run's own count (same parity)
+            end = ends[0]
+            path = run if end == run[0] else run[::-1]
+            target = cnt + 1 + (p0.size - cnt - 1) % 2
+            p = p0
+            params[end] = p
+            for j in range(path.size - 1):
+                ra, rb = int(path[j]), int(path[j + 1])
+                if p.size > target:
+                    cell = _cell_between(lay, min(ra, rb))
+                    try:
+                        tm, p = _cascade_cell(
+                            lay, cell, ra, p, target, _cell_along(lay, cell, size)
+                        )
+                    except TransitionError:
+                        pass  # this cell stays a plain grid
+                    else:
+                        cascades[cell] = (tm, ra)
+                params[rb] = p
+            continue
+        if p0.size != p1.size and cascades is not None and run.size >= 3 and len(ends) == 2:
+            # transition cascades in the cells from the end with more points, each cell taking
+            # as many stages as fit, the rest of the run morphing to the other end
+            hi, lo = (run[-1], run[0]) if p1.size > p0.size else (run[0], run[-1])
+            path = run[::-1] if hi == run[-1] else run
+            target = fixed[lo].size
+            p = fixed[hi]
+            params[hi] = p
+            j = 0
+            while p.size != target and j < path.size - 2:
+                ra, rb = int(path[j]), int(path[j + 1])
+                cell = _cell_between(lay, min(ra, rb))
+                try:
+                    tm, p = _cascade_cell(lay, cell, ra, p, target, _cell_along(lay, cell, size))
+                except TransitionError as exc:
+                    raise ThinPartError(
+                        f"the corridor cannot change its number of points across near "
+                        f"({mid[ra].real:.6g}, {mid[ra].imag:.6g}): {exc.args[0]}"
+                    ) from exc
+                cascades[cell] = (tm, ra)
+                params[rb] = p
+                j += 1
+            if p.size != target:
+                raise ThinPartError(
+                    f"the stretch of the corridor between ({mid[run[0]].real:.6g}, "
+                    f"{mid[run[0]].imag:.6g}) and ({mid[run[-1]].real:.6g}, "
+                    f"{mid[run[-1]].imag:.6g}) cannot change from {fixed[hi].size} to "
+                    f"{target} points across (it reached {p.size})"
+                )
+            sub = path[j:]
+            arc = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(mid[sub])))])
+            w = arc / arc[-1]
+            for r, x in zip(sub, w):
+                params[r] = (1.0 - x) * p + x * fixed[lo]
+            continue
         if p0.size != p1.size:
             raise ThinPartError(
                 f"the stretch of the corridor between ({mid[run[0]].real:.6g}, "
@@ -1159,6 +1232,43 @@ def _run_params(lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray]) 
         for r, x in zip(run, w):
             params[r] = (1.0 - x) * p0 + x * p1
     return params
+
+
+def _cell_between(lay: CorridorLayout, r: int) -> int:
+    """The ladder cell between rungs r and r + 1."""
+    hit = np.flatnonzero((lay.cell_rungs[:, 0] == r) & (lay.cell_rungs[:, 1] == r + 1))
+    if hit.size != 1:
+        raise ThinPartError("the corridor's layout has no cell between two consecutive rungs")
+    return int(hit[0])
+
+
+def _cell_along(lay: CorridorLayout, cell: int, size: float) -> int:
+    """Segments along the walls of a ladder cell for quads of about ``size``."""
+    V = lay.vertices
+    k0, k1 = (int(x) for x in lay.cell_rungs[cell])
+    (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+    return max(1, int(np.ceil(max(abs(V[a2] - V[a]), abs(V[b2] - V[b])) / size)))
+
+
+def _cascade_cell(
+    lay: CorridorLayout, cell: int, fine_rung: int, p_fine: np.ndarray, n_coarse: int, n_along: int
+):
+    """As many transition stages as fit (:func:`quadmesh.transition.transition_cascade`) in
+    the ladder cell ``cell``, from the ``p_fine`` points of rung ``fine_rung`` (parameters
+    from its L end) towards ``n_coarse`` points on the cell's other rung; returns the mesh (in
+    its frame: fine side c1 -> c2) and the other rung's parameters (from its L end)."""
+    V = lay.vertices
+    k0, k1 = (int(x) for x in lay.cell_rungs[cell])
+    (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+    if fine_rung == k1:  # fine side u = 1: the cell as it is
+        corners = V[[a, a2, b2, b]]
+        tm = transition_cascade(corners, p_fine, n_coarse - 1, partial=True, n_along=n_along)
+        return tm, tm.p_coarse
+    corners = V[[b2, b, a, a2]]  # turned by 180°: u and p reversed
+    tm = transition_cascade(
+        corners, 1.0 - p_fine[::-1], n_coarse - 1, partial=True, n_along=n_along
+    )
+    return tm, 1.0 - tm.p_coarse[::-1]
 
 
 def _check_ladder_angles(pts: np.ndarray, quads: np.ndarray, z: np.ndarray) -> None:
@@ -1187,14 +1297,21 @@ def _bilinear(c: np.ndarray, sp: np.ndarray, tp: np.ndarray) -> np.ndarray:
 
 
 def _refine_ladder(
-    lay: CorridorLayout, size: float, fixed: dict[int, np.ndarray], tips: set[int]
+    lay: CorridorLayout,
+    size: float,
+    fixed: dict[int, np.ndarray],
+    tips: set[int],
+    transitions: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
     """Refine a ladder layout: every rung's points generated once (:func:`_run_params`) and
     shared by index by the cells on both sides; ladder cells are ruled grids between their
     two rungs (bilinear when the two carry the same parameters), fan and cap cells bilinear
-    grids. Returns points, quads, the cell of every quad and every rung's point indices."""
+    grids. Returns points, quads, the cell of every quad and every rung's point indices.
+    ``transitions``: runs between fixed rungs of different counts get transition cascades
+    (:func:`_run_params`)."""
     V = lay.vertices
-    params = _run_params(lay, size, fixed)
+    cascades: dict | None = {} if transitions else None
+    params = _run_params(lay, size, fixed, cascades)
     pts: list[np.ndarray] = [V]
     count = V.size
 
@@ -1230,6 +1347,18 @@ def _refine_ladder(
 
     for c, (ring, kind, (k0, k1)) in enumerate(zip(lay.cells, lay.kind, lay.cell_rungs)):
         ring = [int(x) for x in ring]
+        if kind == "ladder" and cascades and c in cascades:
+            tm, fine_rung = cascades[c]
+            fine_ids = rung_ids[fine_rung]
+            coarse_ids = rung_ids[k1 if fine_rung == k0 else k0]
+            if fine_rung == k0:  # the cascade's frame is the cell turned by 180°
+                fine_ids, coarse_ids = fine_ids[::-1], coarse_ids[::-1]
+            ids = np.full(tm.points.size, -1, dtype=np.int64)
+            ids[tm.fine] = fine_ids
+            ids[tm.coarse] = coarse_ids
+            quads.append(fill(tm.points, ids)[tm.quads])
+            owner.append(np.full(len(tm.quads), c))
+            continue
         if kind == "ladder":
             (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
             m = max(along(a, a2), along(b, b2))
@@ -1499,7 +1628,12 @@ def mesh_arm(
     t = (np.asarray(body_points) - za) / (zb - za)
     on = (np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)
     par = _param_list(np.sort(t.real[on]))
-    cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par})
+    # the arm's own counts, changed to the body's by a transition cascade next to the cut; the
+    # arm carrying the body's points along its whole length where that does not work
+    try:
+        cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par}, transitions=True)
+    except ThinPartError:
+        cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par})
     used = np.unique(cm.quads)
     remap = np.full(cm.vertices.size, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
