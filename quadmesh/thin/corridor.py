@@ -870,9 +870,7 @@ def _mesh_layout(
         if k in fixed:
             raise ThinPartError("a sector of the corridor sits where it meets the rest")
         fixed[k] = par
-    pts, quads, cell, rung_ids = _refine_ladder(
-        lay, size, fixed, set(tips.tolist()), transitions
-    )
+    pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()), transitions)
     for k_s, (m, entries) in enumerate(built):
         gp, gamma_ids, allp, sq, _a, _s1, _s2 = m
         n_pts = gp.size
