@@ -27,6 +27,7 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
 from ..progress import checkpoint
 
@@ -104,17 +105,36 @@ class Configuration:
             # θ_j − θ_b as a sum of the gaps from b forward (or, past π, minus the sum from j
             # forward to b): every difference is accurate relative to its own size, whatever
             # the rounding of the angles themselves.
-            ar = np.arange(n)
-            K = (ar[None, :] - ar[:, None]) % n
-            F = np.zeros((n, n + 1))
-            np.cumsum(gaps[(ar[:, None] + ar[None, :]) % n], axis=1, out=F[:, 1:])
-            fwd = np.take_along_axis(F, K, axis=1)
+            # row b of R: the sums of the gaps from b forward over 0..n−1 gaps, twice, so
+            # that θ_j − θ_b (forward) is R[b, n − b + j], a strided view of R
+            R = np.zeros((n, 2 * n))
+            np.cumsum(sliding_window_view(np.r_[gaps, gaps[:-2]], n - 1), axis=1, out=R[:, 1:n])
+            R[:, n:] = R[:, :n]
+            fwd = as_strided(R.ravel()[n:], shape=(n, n), strides=(8 * (2 * n - 1), 8))
             delta = np.where(fwd <= np.pi, fwd, -fwd.T)
-            E[:n] = self.z[:, None] * (2j * np.sin(0.5 * delta)) * np.exp(0.5j * delta)
+            # z_j − z_b = z_b (e^{iΔ} − 1) = z_b (−2 sin²(Δ/2) + 2i sin(Δ/2) cos(Δ/2))
+            half = 0.5 * delta
+            sh = np.sin(half)
+            p_ = -2.0 * sh * sh
+            q_ = 2.0 * sh * np.cos(half)
+            x_, y_ = self.z.real[:, None], self.z.imag[:, None]
+            self.Er = np.empty((n + 1, n))
+            self.Ei = np.empty((n + 1, n))
+            np.subtract(x_ * p_, y_ * q_, out=self.Er[:n])
+            np.add(x_ * q_, y_ * p_, out=self.Ei[:n])
+            E[:n].real = self.Er[:n]
+            E[:n].imag = self.Ei[:n]
         else:
             E[:n] = self.z[None, :] - self.z[:, None]
         E[n] = self.z
         self.E = E
+        if not local:
+            self.Er = np.empty((n + 1, n))
+            self.Ei = np.empty((n + 1, n))
+            self.Er[:n] = E[:n].real
+            self.Ei[:n] = E[:n].imag
+        self.Er[n] = self.z.real
+        self.Ei[n] = self.z.imag
         half = np.minimum(gaps, np.roll(gaps, 1))
         self.nn = 2.0 * np.sin(0.5 * np.minimum(half, np.pi))
 
@@ -292,7 +312,7 @@ def integrate(
     beta = cfg.beta
     half_beta = 0.5 * beta
     zcr, zci = cfg.z.real, -cfg.z.imag
-    Er, Ei = cfg.E.real.copy(), cfg.E.imag.copy()
+    Er, Ei = cfg.Er, cfg.Ei
     z_abs = np.append(cfg.z, 0.0)
     rows = int(np.max(np.diff(bounds)))
     # work arrays of the largest chunk, reused by every chunk (no temporaries per chunk)
@@ -305,9 +325,9 @@ def integrate(
             dq = d[lo:hi]
             # A = z_j − s and B = A/z_j = 1 − s/z_j, in real arithmetic (numpy's complex
             # log is ~10× slower than log∘hypot plus arctan2)
-            ar = np.take(Er, bq, axis=0, out=Ar[:k])
+            ar = np.take(Er, bq, axis=0, out=Ar[:k], mode="clip")
             ar -= dq.real[:, None]
-            ai = np.take(Ei, bq, axis=0, out=Ai[:k])
+            ai = np.take(Ei, bq, axis=0, out=Ai[:k], mode="clip")
             ai -= dq.imag[:, None]
             # |A|² directly: hypot is several times slower, and |A| ≥ the panel scale
             # (≫ 1e-150) keeps the square far from underflow
