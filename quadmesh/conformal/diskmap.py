@@ -744,7 +744,11 @@ class DiskMap:
         if not ok:
             # harmonic-measure guess (§1.5): the gap of side k is 2π ω(c, side_k)
             with span(0.0, 0.1):
-                est = _harmonic_gaps(wr, center)
+                # from the polygon in its own order (the decomposition has usually computed
+                # the same measure already), rolled like wr
+                est = _harmonic_gaps(w, center)
+                if est is not None:
+                    est = np.roll(est, -shift)
         if est is not None:
             est_gap = float(np.min(est))
             if 0.0 < min_gap < 1.0 and est_gap < min_gap * CROWDING_REJECT:
