@@ -136,9 +136,9 @@ class _Problem:
         #: evaluations always use the full rule); set by :func:`_newton` while far from the root
         self.coarse_jacobian = False
         self.nfev = 0
-        #: ``(gaps, cfg, S, Ic)`` of the last evaluation with the full rule (reused by
-        #: :meth:`DiskMap.from_polygon` for the solved map)
-        self.last: tuple[np.ndarray, Configuration, np.ndarray, complex] | None = None
+        #: ``(gaps, cfg, S, Ic, half)`` of the last evaluation with the full rule (reused by
+        #: :meth:`DiskMap.from_polygon` for the solved map; ``half``: the half-side integrals)
+        self.last: tuple[np.ndarray, Configuration, np.ndarray, complex, np.ndarray] | None = None
         #: progress of a solve: each evaluation is one step (:class:`quadmesh.progress.Steps`)
         self.steps: Steps | None = None
 
@@ -154,8 +154,9 @@ class _Problem:
         return jacobian and self.coarse_jacobian and self.rules_coarse is not None
 
     def integrals(self, cfg: Configuration, jacobian: bool):
-        """Side integrals S_k (all n), centre integral ∫_{z_0}^0 F, and their gap-Jacobians
-        (with the coarse rule when :meth:`coarse` says so)."""
+        """Side integrals S_k (all n), centre integral ∫_{z_0}^0 F, their gap-Jacobians (with
+        the coarse rule when :meth:`coarse` says so), and the half-side integrals from each
+        prevertex z_k to its arc's midpoint."""
         n = self.n
         z = cfg.z
         k = np.arange(n)
@@ -170,9 +171,9 @@ class _Problem:
         H, J = integrate(cfg, plan, rules, jacobian=jacobian)
         S = H[:n] - H[n : 2 * n]
         if not jacobian:
-            return S, H[2 * n], None, None
+            return S, H[2 * n], None, None, H[:n]
         G = gap_jacobian(cfg, plan, H, J)
-        return S, H[2 * n], G[:n] - G[n : 2 * n], G[2 * n]
+        return S, H[2 * n], G[:n] - G[n : 2 * n], G[2 * n], H[:n]
 
     def evaluate(self, x: np.ndarray, jacobian: bool = True):
         """Residual (and Jacobian w.r.t. x) of the n−1 parameter equations."""
@@ -195,10 +196,10 @@ class _Problem:
             raise QuadratureError("a gap underflowed to zero")
         cfg = Configuration(gaps, self.beta, self.local)
         with self.steps.next() if self.steps is not None else nullcontext():
-            S, Ic, JS, JI = self.integrals(cfg, jacobian)
+            S, Ic, JS, JI, half = self.integrals(cfg, jacobian)
         res = self.residual(S, Ic)
         if not self.coarse(jacobian):
-            self.last = (gaps.copy(), cfg, S, Ic)
+            self.last = (gaps.copy(), cfg, S, Ic, half)
         if not jacobian:
             return res, None, cfg, S, Ic
         r = self.ref
@@ -213,10 +214,11 @@ class _Problem:
 
 def _rotated_solution(
     prob: _Problem, x: np.ndarray, shift: int, final: _Problem, gaps: np.ndarray
-) -> tuple[Configuration, np.ndarray, complex] | None:
-    """The configuration, side integrals and centre integral of ``final`` (the polygon in its
-    own vertex order) at ``gaps``, from the last full-rule evaluation of ``prob`` (the same
-    polygon rolled by ``shift``) when that was at ``x``; None otherwise.
+) -> tuple[Configuration, np.ndarray, complex, np.ndarray] | None:
+    """The configuration, side integrals, centre integral and half-side integrals of
+    ``final`` (the polygon in its own vertex order) at ``gaps``, from the last full-rule
+    evaluation of ``prob`` (the same polygon rolled by ``shift``) when that was at ``x``;
+    None otherwise.
 
     The two configurations differ by the rotation ``e^{−iφ}`` that takes the rolled problem's
     prevertex of vertex 0 to 1, and ``∫ F ds`` turns with it: ``S_k = e^{−iφ} S'_{k−shift}``.
@@ -224,18 +226,19 @@ def _rotated_solution(
     """
     if prob.last is None or prob.local != final.local:
         return None
-    g, cfg_r, S_r, _ = prob.last
+    g, cfg_r, S_r, _, half_r = prob.last
     if not np.array_equal(g, _Problem.gaps(x)):
         return None
     n = final.n
     rot = np.conj(cfg_r.z[(n - shift) % n])
     S = np.roll(S_r, shift) * rot
+    half = np.roll(half_r, shift) * rot
     cfg = Configuration(gaps, final.beta, final.local)
     plan = plan_integrals(
         cfg, np.zeros(1, np.intp), np.zeros(1, complex), -cfg.z[:1], np.ones(1, bool)
     )
     Ic = complex(integrate(cfg, plan, final.rules)[0][0])
-    return cfg, S, Ic
+    return cfg, S, Ic, half
 
 
 def _softmax_chain(gd: np.ndarray, gaps: np.ndarray) -> np.ndarray:
@@ -626,7 +629,7 @@ class DiskMap:
         gaps: np.ndarray,
         iterations: int,
         steps: int,
-        solved: tuple[Configuration, np.ndarray, complex] | None = None,
+        solved: tuple[Configuration, np.ndarray, complex, np.ndarray] | None = None,
     ) -> None:
         self.vertices = prob.w.copy()
         self.n = prob.n
@@ -639,10 +642,14 @@ class DiskMap:
         self._prob = prob
         if solved is None:
             res, _, cfg, S, Ic = prob.evaluate_gaps(gaps, jacobian=False)
+            half = prob.last[4] if prob.last is not None and prob.last[1] is cfg else None
         else:
             # the configuration and integrals of these gaps, already at hand from the solve
-            cfg, S, Ic = solved
+            cfg, S, Ic, half = solved
             res = prob.residual(S, Ic)
+        #: ∫ F from each prevertex z_k to the midpoint of its arc (the boundary check's
+        #: middle samples), or None
+        self._half = half
         self.residual = float(np.max(np.abs(res)))
         self._cfg = cfg
         self.gaps = cfg.gaps.copy()
@@ -1519,10 +1526,16 @@ class DiskMap:
         base = np.where(near0, k, k1)
         zb = self.prevertices[base]
         end = np.where(near0, zb * np.expm1(1j * t * g), zb * np.expm1(-1j * (1 - t) * g))
+        # the middle samples are the half-side integrals of the solve when it kept them
+        mid = (t == 0.5) if self._half is not None else np.zeros(k.size, bool)
+        todo = np.flatnonzero(~mid)
         plan = plan_integrals(
-            self._cfg, base, np.zeros(k.size, complex), end, np.ones(k.size, bool)
+            self._cfg, base[todo], np.zeros(todo.size, complex), end[todo], np.ones(todo.size, bool)
         )
-        H, _ = integrate(self._cfg, plan, self._prob.rules)
+        H = np.empty(k.size, dtype=np.complex128)
+        H[todo] = integrate(self._cfg, plan, self._prob.rules)[0]
+        if self._half is not None:
+            H[mid] = self._half[k[mid]]
         fb = w[base] + C * H
         e = edges[k]
         dev = np.abs(((fb - w[k]) * np.conj(e)).imag) / np.abs(e)
