@@ -16,6 +16,7 @@ the centre of the rectangle, for a regular polygon its centre.
 from __future__ import annotations
 
 import collections
+import threading
 
 import numpy as np
 import scipy.sparse as sp
@@ -128,6 +129,7 @@ def _graded_points(
 #: from the same polygon and centre the piece's disk map then starts from.
 _MEASURES: collections.OrderedDict[tuple, np.ndarray] = collections.OrderedDict()
 _MEASURES_KEPT = 4
+_MEASURES_LOCK = threading.Lock()
 
 
 def harmonic_measure(
@@ -137,13 +139,16 @@ def harmonic_measure(
     (:func:`_harmonic_measure`), remembered for the last few polygons and centres."""
     w = np.ascontiguousarray(np.asarray(z, dtype=np.complex128).ravel())
     key = (w.tobytes(), complex(c), float(per_width), float(grade))
-    if key in _MEASURES:
-        _MEASURES.move_to_end(key)
-        return _MEASURES[key].copy()
+    with _MEASURES_LOCK:
+        om = _MEASURES.get(key)
+        if om is not None:
+            _MEASURES.move_to_end(key)
+            return om.copy()
     om = _harmonic_measure(w, c, per_width=per_width, grade=grade)
-    _MEASURES[key] = om.copy()
-    while len(_MEASURES) > _MEASURES_KEPT:
-        _MEASURES.popitem(last=False)
+    with _MEASURES_LOCK:
+        _MEASURES[key] = om.copy()
+        while len(_MEASURES) > _MEASURES_KEPT:
+            _MEASURES.popitem(last=False)
     return om
 
 
