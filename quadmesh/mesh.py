@@ -97,6 +97,39 @@ def local_quad_angles_deg(z: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return _angles_from_edges(c[:, _NEXT] - c)
 
 
+def _nearest_sides(tree: object, pz: np.ndarray, p: np.ndarray, tol: float) -> np.ndarray:
+    """Index of the polygon side (``tree``: shapely STRtree of the sides ``pz[k] → pz[k+1]``)
+    nearest to each point of ``p`` (complex).
+
+    One bulk ``dwithin`` query finds the sides within ``tol`` of each point: a point with a
+    single one takes it (every other side is farther than ``tol``); a point with several
+    takes the nearest of them by the exact point–segment distance; only points farther than
+    ``tol`` from every side (free edges off the boundary: a broken mesh) ask the tree for
+    their nearest side one by one.
+    """
+    import shapely
+
+    pts = shapely.points(p.real, p.imag)
+    ip, js = tree.query(pts, predicate="dwithin", distance=tol)
+    cnt = np.bincount(ip, minlength=p.size)
+    side = np.full(p.size, -1, dtype=np.intp)
+    one = cnt[ip] == 1
+    side[ip[one]] = js[one]
+    if not one.all():
+        pi, sj = ip[~one], js[~one]
+        p0 = pz[sj]
+        d = np.roll(pz, -1)[sj] - p0
+        t = np.clip(((p[pi] - p0) * np.conj(d)).real / (d * np.conj(d)).real, 0.0, 1.0)
+        dist = np.abs(p[pi] - p0 - t * d)
+        o = np.lexsort((dist, pi))
+        first = np.r_[True, pi[o][1:] != pi[o][:-1]]
+        side[pi[o][first]] = sj[o][first]
+    none = np.flatnonzero(cnt == 0)
+    if none.size:
+        side[none] = tree.query_nearest(pts[none], all_matches=False)[1]
+    return side
+
+
 def _angles_from_edges(e: np.ndarray) -> np.ndarray:
     """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
     corner k + 1), as :func:`local_quad_angles_deg` measures them."""
@@ -1182,7 +1215,10 @@ class QuadMesh:
 
         if self.n_vertices < 2:
             return []
-        pairs = cKDTree(self.vertices).query_pairs(r, output_type="ndarray")
+        # an unbalanced tree without shrunk nodes builds faster (0.28 s for the 1e6
+        # vertices of noisy_circle_1000) and finds the same pairs
+        tree = cKDTree(self.vertices, balanced_tree=False, compact_nodes=False)
+        pairs = tree.query_pairs(r, output_type="ndarray")
         if pairs.size == 0:
             return []
         d = np.abs(self._z[pairs[:, 0]] - self._z[pairs[:, 1]])
@@ -1244,9 +1280,8 @@ class QuadMesh:
             return ["boundary: the mesh has no boundary edges"]
         pv = poly.vertices
         sides = shapely.linestrings(np.stack([pv, np.roll(pv, -1, axis=0)], axis=1))
-        tree = shapely.STRtree(sides)
         mid = 0.5 * (z[ba] + z[bb])
-        side = tree.query_nearest(shapely.points(mid.real, mid.imag), all_matches=False)[1]
+        side = _nearest_sides(shapely.STRtree(sides), pz, mid, tol)
         p0 = pz[side]
         d = np.roll(pz, -1)[side] - p0
         dd = (d * np.conj(d)).real

@@ -304,3 +304,58 @@ def test_chord_newton_matches_full_newton(monkeypatch: pytest.MonkeyPatch) -> No
     assert not flags_def[-1] and flags_def.count(True) < flags_full.count(True)
     for g in (g_chord, g_def):
         assert np.max(np.abs(g - g_full) / g_full) < 1e-11
+
+
+def test_coarse_jacobians_reach_the_same_root() -> None:
+    """Far from the root Newton forms its Jacobians with the coarse rule; the root, and the
+    residual it reports, are those of the full rule (as when every evaluation uses it)."""
+    from quadmesh.benchmark import smooth_star
+    from quadmesh.conformal import diskmap
+
+    w = smooth_star(150, seed=150) @ np.array([1, 1j])
+    c = complex(inscribed_center(w)[0])
+    x0 = diskmap._x_from_gaps(diskmap._harmonic_gaps(w, c))
+
+    def solve(coarse: bool) -> tuple[np.ndarray, list[tuple[bool, bool]], _Problem]:
+        prob = _Problem(w, c, 12)
+        if not coarse:
+            prob.rules_coarse = None
+        flags: list[tuple[bool, bool]] = []
+        inner = prob.evaluate_gaps
+
+        def recording(gaps: np.ndarray, jacobian: bool = True):
+            flags.append((jacobian, prob.coarse(jacobian)))
+            return inner(gaps, jacobian)
+
+        prob.evaluate_gaps = recording
+        x, res, _, ok = diskmap._newton(prob, x0, TOL)
+        assert ok and res < 5e-14
+        assert not prob.coarse_jacobian  # restored
+        # the reported residual is the full rule's
+        full = _Problem(w, c, 12).evaluate(x, jacobian=False)[0]
+        assert np.max(np.abs(full)) < 5e-14
+        return _Problem.gaps(x), flags, prob
+
+    g_full, flags_full, _ = solve(False)
+    g_coarse, flags_coarse, prob = solve(True)
+    assert not any(co for _, co in flags_full)
+    assert any(co for _, co in flags_coarse)
+    # only Jacobian evaluations use the coarse rule, and the last evaluation is a full one
+    assert all(jac for jac, co in flags_coarse if co) and not flags_coarse[-1][1]
+    assert np.max(np.abs(g_coarse - g_full) / g_full) < 1e-11
+    assert prob.rules_coarse[0].shape[1] == diskmap.COARSE_NODES
+
+
+def test_solved_map_reuses_the_rotated_integrals() -> None:
+    """The solved map takes its side integrals from the solve (rotated to the polygon's own
+    vertex order): they agree with integrals computed afresh at its prevertices."""
+    from quadmesh.benchmark import smooth_star
+
+    w = smooth_star(60, seed=3) @ np.array([1, 1j])
+    w = np.roll(w, 17)  # the solve rolls the longest side to the end
+    dm = DiskMap.from_polygon(w)
+    _, _, _, S, Ic = dm._prob.evaluate_gaps(dm.gaps, jacobian=False)
+    assert np.max(np.abs(dm._S / S - 1)) < 1e-13
+    assert abs(dm._Ic / Ic - 1) < 1e-13
+    assert dm.residual < 5e-14
+    assert_map_checks(dm)

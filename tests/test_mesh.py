@@ -311,3 +311,33 @@ def test_rounding_is_measured_not_allowed() -> None:
     at0 = QuadMesh.from_complex(rhombus, np.array([[0, 1, 2, 3]]))
     assert np.abs(at0.angles() - np.array([60, 120, 60, 120])).max() < 1e-9
     assert at0.verify(at0.vertices).ok
+
+
+def test_nearest_sides_match_the_tree_query() -> None:
+    """The free-edge sides of the verification (one bulk ``dwithin`` query, the nearest of
+    several candidates by exact distance, the tree's nearest side for points off every side)
+    are the sides ``STRtree.query_nearest`` gives: points on the sides, within 1e-10 of a
+    side's length from a corner (two candidates), and anywhere in the bounding box."""
+    import shapely
+
+    from quadmesh.examples import load_example
+    from quadmesh.mesh import _nearest_sides
+    from quadmesh.polygon import validate_polygon
+
+    rng = np.random.default_rng(5)
+    for name in ("l_shape", "comb", "slit_355deg", "corner_5deg"):
+        poly = validate_polygon(load_example(name))
+        pz, pv = poly.z, poly.vertices
+        sides = shapely.linestrings(np.stack([pv, np.roll(pv, -1, axis=0)], axis=1))
+        tree = shapely.STRtree(sides)
+        k = rng.integers(0, pz.size, 3000)
+        t = rng.uniform(0.0, 1.0, k.size)
+        t[:500] = rng.uniform(0.0, 1e-10, 500)
+        on = pz[k] + t * (np.roll(pz, -1)[k] - pz[k])
+        box = rng.uniform(pz.real.min(), pz.real.max(), 1000) + 1j * rng.uniform(
+            pz.imag.min(), pz.imag.max(), 1000
+        )
+        p = np.r_[on, box]
+        want = tree.query_nearest(shapely.points(p.real, p.imag), all_matches=False)[1]
+        got = _nearest_sides(tree, pz, p, 1e-9 * poly.diameter)
+        assert np.array_equal(got, want), name

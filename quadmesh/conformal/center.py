@@ -15,6 +15,9 @@ the centre of the rectangle, for a regular polygon its centre.
 
 from __future__ import annotations
 
+import collections
+import threading
+
 import numpy as np
 import scipy.sparse as sp
 import shapely
@@ -122,7 +125,34 @@ def _graded_points(
     return np.concatenate(out) if out else np.zeros(0, complex)
 
 
+#: The last few harmonic measures computed: the decomposition estimates a piece's crowding
+#: from the same polygon and centre the piece's disk map then starts from.
+_MEASURES: collections.OrderedDict[tuple, np.ndarray] = collections.OrderedDict()
+_MEASURES_KEPT = 4
+_MEASURES_LOCK = threading.Lock()
+
+
 def harmonic_measure(
+    z: np.ndarray, c: complex, *, per_width: float = 4.0, grade: float = 0.4
+) -> np.ndarray:
+    """Harmonic measure ``ω_k = ω(c, side_k, Ω)`` of every side (``z_k → z_{k+1}``) seen from c
+    (:func:`_harmonic_measure`), remembered for the last few polygons and centres."""
+    w = np.ascontiguousarray(np.asarray(z, dtype=np.complex128).ravel())
+    key = (w.tobytes(), complex(c), float(per_width), float(grade))
+    with _MEASURES_LOCK:
+        om = _MEASURES.get(key)
+        if om is not None:
+            _MEASURES.move_to_end(key)
+            return om.copy()
+    om = _harmonic_measure(w, c, per_width=per_width, grade=grade)
+    with _MEASURES_LOCK:
+        _MEASURES[key] = om.copy()
+        while len(_MEASURES) > _MEASURES_KEPT:
+            _MEASURES.popitem(last=False)
+    return om
+
+
+def _harmonic_measure(
     z: np.ndarray, c: complex, *, per_width: float = 4.0, grade: float = 0.4
 ) -> np.ndarray:
     """Harmonic measure ``ω_k = ω(c, side_k, Ω)`` of every side (``z_k → z_{k+1}``) seen from c.

@@ -27,6 +27,7 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided, sliding_window_view
 
 from ..progress import checkpoint
 
@@ -104,17 +105,36 @@ class Configuration:
             # θ_j − θ_b as a sum of the gaps from b forward (or, past π, minus the sum from j
             # forward to b): every difference is accurate relative to its own size, whatever
             # the rounding of the angles themselves.
-            ar = np.arange(n)
-            K = (ar[None, :] - ar[:, None]) % n
-            F = np.zeros((n, n + 1))
-            np.cumsum(gaps[(ar[:, None] + ar[None, :]) % n], axis=1, out=F[:, 1:])
-            fwd = np.take_along_axis(F, K, axis=1)
+            # row b of R: the sums of the gaps from b forward over 0..n−1 gaps, twice, so
+            # that θ_j − θ_b (forward) is R[b, n − b + j], a strided view of R
+            R = np.zeros((n, 2 * n))
+            np.cumsum(sliding_window_view(np.r_[gaps, gaps[:-2]], n - 1), axis=1, out=R[:, 1:n])
+            R[:, n:] = R[:, :n]
+            fwd = as_strided(R.ravel()[n:], shape=(n, n), strides=(8 * (2 * n - 1), 8))
             delta = np.where(fwd <= np.pi, fwd, -fwd.T)
-            E[:n] = self.z[:, None] * (2j * np.sin(0.5 * delta)) * np.exp(0.5j * delta)
+            # z_j − z_b = z_b (e^{iΔ} − 1) = z_b (−2 sin²(Δ/2) + 2i sin(Δ/2) cos(Δ/2))
+            half = 0.5 * delta
+            sh = np.sin(half)
+            p_ = -2.0 * sh * sh
+            q_ = 2.0 * sh * np.cos(half)
+            x_, y_ = self.z.real[:, None], self.z.imag[:, None]
+            self.Er = np.empty((n + 1, n))
+            self.Ei = np.empty((n + 1, n))
+            np.subtract(x_ * p_, y_ * q_, out=self.Er[:n])
+            np.add(x_ * q_, y_ * p_, out=self.Ei[:n])
+            E[:n].real = self.Er[:n]
+            E[:n].imag = self.Ei[:n]
         else:
             E[:n] = self.z[None, :] - self.z[:, None]
         E[n] = self.z
         self.E = E
+        if not local:
+            self.Er = np.empty((n + 1, n))
+            self.Ei = np.empty((n + 1, n))
+            self.Er[:n] = E[:n].real
+            self.Ei[:n] = E[:n].imag
+        self.Er[n] = self.z.real
+        self.Ei[n] = self.z.imag
         half = np.minimum(gaps, np.roll(gaps, 1))
         self.nn = 2.0 * np.sin(0.5 * np.minimum(half, np.pi))
 
@@ -290,44 +310,66 @@ def integrate(
             nxt = int(np.searchsorted(owner, o, side="right"))
         bounds.append(nxt)
     beta = cfg.beta
+    half_beta = 0.5 * beta
     zcr, zci = cfg.z.real, -cfg.z.imag
-    Er, Ei = cfg.E.real.copy(), cfg.E.imag.copy()
+    Er, Ei = cfg.Er, cfg.Ei
     z_abs = np.append(cfg.z, 0.0)
+    rows = int(np.max(np.diff(bounds)))
+    # work arrays of the largest chunk, reused by every chunk (no temporaries per chunk)
+    Ar, Ai, T1, T2 = (np.empty((rows, n)) for _ in range(4))
     with np.errstate(divide="ignore", invalid="ignore"):
         for lo, hi in itertools.pairwise(bounds):
             checkpoint(lo / Q)
+            k = hi - lo
             bq = base[lo:hi]
             dq = d[lo:hi]
             # A = z_j − s and B = A/z_j = 1 − s/z_j, in real arithmetic (numpy's complex
             # log is ~10× slower than log∘hypot plus arctan2)
-            Ar = Er[bq] - dq.real[:, None]
-            Ai = Ei[bq] - dq.imag[:, None]
+            ar = np.take(Er, bq, axis=0, out=Ar[:k], mode="clip")
+            ar -= dq.real[:, None]
+            ai = np.take(Ei, bq, axis=0, out=Ai[:k], mode="clip")
+            ai -= dq.imag[:, None]
             # |A|² directly: hypot is several times slower, and |A| ≥ the panel scale
             # (≫ 1e-150) keeps the square far from underflow
-            m2 = Ar * Ar + Ai * Ai
-            lr = np.log(m2)
-            la = np.arctan2(Ar * zci + Ai * zcr, Ar * zcr - Ai * zci)
+            m2 = np.multiply(ar, ar, out=T1[:k])
+            t2 = np.multiply(ai, ai, out=T2[:k])
+            m2 += t2
             pv = np.flatnonzero(bq < n)
-            lr[pv, bq[pv]] = 0.0
-            la[pv, bq[pv]] = 0.0
-            val = W[lo:hi] * np.exp(lr @ (0.5 * beta) + 1j * (la @ beta))
+            pj = bq[pv]
+            lr = np.log(m2, out=t2)
+            lr[pv, pj] = 0.0
+            lsum = lr @ half_beta
+            # arg B with B = A·conj(z_j): Re B = Ar zr − Ai zci, Im B = Ar zci + Ai zr
+            re = np.multiply(ar, zcr, out=t2)
+            re -= ai * zci
+            im = ai * zcr
+            im += ar * zci
+            la = np.arctan2(im, re, out=im)
+            la[pv, pj] = 0.0
+            val = W[lo:hi] * np.exp(lsum + 1j * (la @ beta))
             oq = owner[lo:hi]
             H += np.bincount(oq, weights=val.real, minlength=nint) + 1j * np.bincount(
                 oq, weights=val.imag, minlength=nint
             )
             if jacobian:
-                Rr = Ar / m2
-                Ri = -Ai / m2
-                Rr[pv, bq[pv]] = 0.0
-                Ri[pv, bq[pv]] = 0.0
+                # Σ_q v_q / A_qj over each integral's nodes, v = F·s·weight, in real
+                # arithmetic: 1/A = (Ar − i Ai)/|A|², in the work arrays
+                inv = np.divide(1.0, m2, out=m2)
+                rr = np.multiply(ar, inv, out=ar)
+                ri = np.multiply(ai, inv, out=ai)
+                rr[pv, pj] = 0.0
+                ri[pv, pj] = 0.0
                 starts = np.flatnonzero(np.r_[True, oq[1:] != oq[:-1]])
                 uo = oq[starts]
                 v = val * (z_abs[bq] + dq)
                 vr = v.real[:, None]
                 vi = v.imag[:, None]
-                J[uo] += np.add.reduceat(Rr * vr - Ri * vi, starts, axis=0) + 1j * np.add.reduceat(
-                    Rr * vi + Ri * vr, starts, axis=0
-                )
+                t1 = np.multiply(rr, vr, out=T2[:k])
+                t1 += np.multiply(ri, vi, out=inv)
+                J[uo] += np.add.reduceat(t1, starts, axis=0)
+                t1 = np.multiply(rr, vi, out=T2[:k])
+                t1 -= np.multiply(ri, vr, out=inv)
+                J[uo] += 1j * np.add.reduceat(t1, starts, axis=0)
     if not np.all(np.isfinite(H)):
         raise QuadratureError("non-finite integral (coalesced prevertices)")
     if jacobian:
