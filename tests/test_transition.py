@@ -40,26 +40,35 @@ def _area(poly: np.ndarray) -> float:
     return 0.5 * float(np.imag(np.sum(np.conj(poly) * np.roll(poly, -1))))
 
 
-def _check(tm, corners: np.ndarray, p_fine: np.ndarray, pairs: np.ndarray) -> None:
+def _check_mesh(tm, corners: np.ndarray, p_fine: np.ndarray) -> np.ndarray:
+    """Angles in range, quads positive, areas adding up to the cell's, conforming with the
+    cell's sides as its only free edges, the fine side's points as given; returns the ids of
+    the boundary ring."""
     z, quads = tm.points, tm.quads
     a = _angles(z, quads)
     assert a.min() >= 60.0 - TOL and a.max() <= 120.0 + TOL
-    # positively oriented, areas add up to the cell's
     p = z[quads]
     areas = 0.5 * np.imag(np.sum(np.conj(p) * np.roll(p, -1, axis=1), axis=1))
     assert areas.min() > 0
     assert abs(areas.sum() - _area(corners)) <= 1e-12 * abs(_area(corners))
-    # conforming: every edge in one or two quads; the edges in one quad are the cell's boundary
     edges, cnt = _edge_counts(quads)
     assert cnt.max() == 2
     ring = np.concatenate([tm.wall0, tm.fine[1:], tm.wall1[::-1][1:], tm.coarse[::-1][1:-1]])
     bnd = np.sort(np.stack([ring, np.roll(ring, -1)], axis=1), axis=1)
     assert {tuple(e) for e in edges[cnt == 1]} == {tuple(e) for e in bnd}
-    # the sides carry exactly the given parameters (coarse: the fine ones without the middles)
     c0, c1, c2, c3 = corners
-    pc, _ = coarse_rows(p_fine, pairs)
-    assert np.allclose(z[tm.coarse], c0 + pc * (c3 - c0), rtol=0, atol=1e-14)
     assert np.allclose(z[tm.fine], c1 + p_fine * (c2 - c1), rtol=0, atol=1e-14)
+    assert np.allclose(z[tm.coarse], c0 + tm.p_coarse * (c3 - c0), rtol=0, atol=1e-14)
+    return ring
+
+
+def _check(tm, corners: np.ndarray, p_fine: np.ndarray, pairs: np.ndarray) -> None:
+    z, quads = tm.points, tm.quads
+    a = _angles(z, quads)
+    ring = _check_mesh(tm, corners, p_fine)
+    # the coarse side carries the fine parameters without the split rows' middles
+    pc, _ = coarse_rows(p_fine, pairs)
+    assert np.array_equal(tm.p_coarse, pc)
     # one valence-3 interior vertex per split row, its three angles exactly 120°
     inner = np.setdiff1d(np.arange(z.size), ring)
     val = np.bincount(quads.ravel(), minlength=z.size)
@@ -166,21 +175,8 @@ def test_cascade_goes_down_to_the_coarse_count(length, fine, coarse, grading):
     corners = np.array([0, length, length + 1j, 1j])
     p_fine = np.linspace(0.0, 1.0, fine + 1) ** grading
     tm = transition_cascade(corners, p_fine, coarse, n_along=3)
-    z, quads = tm.points, tm.quads
-    a = _angles(z, quads)
-    assert a.min() >= 60.0 - TOL and a.max() <= 120.0 + TOL
-    p = z[quads]
-    areas = 0.5 * np.imag(np.sum(np.conj(p) * np.roll(p, -1, axis=1), axis=1))
-    assert areas.min() > 0
-    assert abs(areas.sum() - _area(corners)) <= 1e-12 * _area(corners)
-    edges, cnt = _edge_counts(quads)
-    assert cnt.max() == 2
-    ring = np.concatenate([tm.wall0, tm.fine[1:], tm.wall1[::-1][1:], tm.coarse[::-1][1:-1]])
-    bnd = np.sort(np.stack([ring, np.roll(ring, -1)], axis=1), axis=1)
-    assert {tuple(e) for e in edges[cnt == 1]} == {tuple(e) for e in bnd}
+    _check_mesh(tm, corners, p_fine)
     assert tm.coarse.size == coarse + 1 and tm.fine.size == fine + 1
-    assert np.allclose(z[tm.fine], corners[1] + p_fine * (corners[2] - corners[1]), atol=1e-14)
-    assert np.allclose(z[tm.coarse], corners[0] + tm.p_coarse * (corners[3] - corners[0]))
 
 
 def test_cascade_refuses_a_short_cell_or_an_odd_difference():
