@@ -111,8 +111,16 @@ MAX_CONFLICTS = 150_000
 BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
 SEARCH_SECONDS = 3.0
-#: wall-clock seconds the search for a ladder along the polygon as one corridor may take
+#: wall-clock seconds each search for a ladder along the polygon as one corridor may take at
+#: least
 LADDER_SECONDS = 5.0
+#: ... and per polygon vertex, where that is longer: the layout search grows with the walls'
+#: length (measured: a 1,562-vertex river closes after 15 s, rivers of 380-722 vertices in
+#: 0.7-1.6 s)
+LADDER_SECONDS_PER_VERTEX = 0.015
+#: least chord counts of the ladder's sector crosscuts, each searched for in turn (the second
+#: only on polygons of at most ``quadmesh.thin.corridor.SECTOR_RETRY_MAX`` vertices)
+LADDER_SECTOR_CHORDS = (16, 8)
 #: a ladder mesh is used only if no edge is longer than this many times the target size
 LADDER_MAX_EDGE = 2.5
 #: default target edge length, as a fraction of the polygon's diameter
@@ -2034,23 +2042,41 @@ def _ladder_mesh(
     """The polygon meshed as one corridor (:func:`quadmesh.thin.corridor.mesh_corridor`): a
     ladder of convex straight cells with corners in [60°, 120°] between its two ends, refined
     with about four quads across and none longer than ``size``; round ends and bends are
-    vertex sectors.  None when the polygon has no such ladder, or when the sectors' spokes would
-    be longer than :data:`LADDER_MAX_EDGE` times ``size`` (the polygon is too wide for a
-    ladder at this size)."""
-    from .errors import ThinPartError
-    from .thin.corridor import ladder_layout, mesh_corridor
+    vertex sectors.
 
-    try:
-        lad = ladder_layout(z, deadline=time.perf_counter() + LADDER_SECONDS)
-        cm = mesh_corridor(z, size=size, lay=lad)
-    except ThinPartError:
+    The ladder is searched for with sector crosscuts of at least 16 chords and, on polygons of
+    at most :data:`quadmesh.thin.corridor.SECTOR_RETRY_MAX` vertices, again with at least 8
+    (:data:`LADDER_SECTOR_CHORDS`), each search within :data:`LADDER_SECONDS` or
+    :data:`LADDER_SECONDS_PER_VERTEX` per polygon vertex, the longer; of the meshes
+    whose edges are all at most :data:`LADDER_MAX_EDGE` times ``size`` the one with fewer quads
+    is kept (the coarser sectors put fewer points across the corridor, but their layout may
+    need more cells).  None when no search gives such a mesh: the polygon has no ladder, or
+    the sectors' spokes would be long needles (the polygon is too wide for a ladder at this
+    size)."""
+    from .errors import ThinPartError
+    from .thin.corridor import SECTOR_RETRY_MAX, ladder_layout, mesh_corridor
+
+    chords = LADDER_SECTOR_CHORDS if len(z) <= SECTOR_RETRY_MAX else LADDER_SECTOR_CHORDS[:1]
+    seconds = max(LADDER_SECONDS, LADDER_SECONDS_PER_VERTEX * len(z))
+    best = None
+    for least in chords:
+        try:
+            lad = ladder_layout(z, deadline=time.perf_counter() + seconds, sector_chords=least)
+            cm = mesh_corridor(z, size=size, lay=lad)
+        except ThinPartError:
+            continue
+        checkpoint()
+        # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
+        # wide for the size (a disk, say) their spokes would be long needles, not quads of the
+        # size
+        q = cm.vertices[cm.quads]
+        if np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * size:
+            continue
+        if best is None or len(cm.quads) < len(best[1].quads):
+            best = (lad, cm)
+    if best is None:
         return None
-    checkpoint()
-    # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
-    # wide for the size (a disk, say) their spokes would be long needles, not quads of the size
-    q = cm.vertices[cm.quads]
-    if np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * size:
-        return None
+    lad, cm = best
     pts = np.asarray(lad.vertices, dtype=np.complex128)
     cells = np.asarray(lad.cells, dtype=np.int64).reshape(-1, 4)
     lay = BlockLayout(
