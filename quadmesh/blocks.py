@@ -2015,7 +2015,8 @@ def mesh_blocks(
     except BlockLayoutError as exc:
         # no straight cuts close: the polygon as one corridor (strokes, round shapes with two
         # ends), else a collar around a lattice core (round and dense outlines)
-        ladder = _ladder_mesh(z, h)
+        why: list[str] = []
+        ladder = _ladder_mesh(z, h, why)
         if ladder is not None:
             return ladder
         from .rings import RingLayoutError, ring_layout
@@ -2024,8 +2025,8 @@ def mesh_blocks(
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
             raise BlockLayoutError(
-                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon or a "
-                f"collar around a lattice core close ({ring_exc.args[0]})"
+                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon "
+                f"({why[-1]}) or a collar around a lattice core close ({ring_exc.args[0]})"
             ) from exc
     # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
     # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
@@ -2037,7 +2038,7 @@ def mesh_blocks(
 
 
 def _ladder_mesh(
-    z: NDArray[np.complex128], size: float
+    z: NDArray[np.complex128], size: float, why: list[str] | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, None] | None:
     """The polygon meshed as one corridor (:func:`quadmesh.thin.corridor.mesh_corridor`): a
     ladder of convex straight cells with corners in [60°, 120°] between its two ends, refined
@@ -2052,7 +2053,7 @@ def _ladder_mesh(
     is kept (the coarser sectors put fewer points across the corridor, but their layout may
     need more cells).  None when no search gives such a mesh: the polygon has no ladder, or
     the sectors' spokes would be long needles (the polygon is too wide for a ladder at this
-    size)."""
+    size); each search's reason is then appended to ``why`` when given (a list)."""
     from .errors import ThinPartError
     from .thin.corridor import SECTOR_RETRY_MAX, ladder_layout, mesh_corridor
 
@@ -2063,14 +2064,19 @@ def _ladder_mesh(
         try:
             lad = ladder_layout(z, deadline=time.perf_counter() + seconds, sector_chords=least)
             cm = mesh_corridor(z, size=size, lay=lad)
-        except ThinPartError:
+        except ThinPartError as exc:
+            if why is not None:
+                why.append(str(exc.args[0]) if exc.args else type(exc).__name__)
             continue
         checkpoint()
         # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
         # wide for the size (a disk, say) their spokes would be long needles, not quads of the
         # size
         q = cm.vertices[cm.quads]
-        if np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * size:
+        longest = float(np.abs(np.roll(q, -1, axis=1) - q).max())
+        if longest > LADDER_MAX_EDGE * size:
+            if why is not None:
+                why.append(f"its sectors' longest edge is {longest / size:.3g} × the size")
             continue
         if best is None or len(cm.quads) < len(best[1].quads):
             best = (lad, cm)

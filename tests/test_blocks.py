@@ -322,9 +322,13 @@ def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
 
 
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
+    """The fallback message names each route's reason: the cuts', the ladder's (in brackets
+    after it) and the collar's."""
     res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
+    ladder = res.fallback.split("nor does a ladder of straight cells along the polygon (")[1]
+    assert ladder.split(")")[0].strip()  # the ladder's own reason
     assert res.pieces and res.verification.ok
 
 
