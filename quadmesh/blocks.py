@@ -115,9 +115,9 @@ SEARCH_SECONDS = 3.0
 #: least
 LADDER_SECONDS = 5.0
 #: ... and per polygon vertex, where that is longer: the layout search grows with the walls'
-#: length (measured: a 1,562-vertex river closes after 15 s, rivers of 380-722 vertices in
-#: 0.7-1.6 s)
-LADDER_SECONDS_PER_VERTEX = 0.015
+#: length (measured: a 1,562-vertex river closes after 15 s on a quiet machine and 22 s under
+#: load, rivers of 380-722 vertices in 0.7-4.2 s)
+LADDER_SECONDS_PER_VERTEX = 0.02
 #: least chord counts of the ladder's sector crosscuts, each searched for in turn (the second
 #: only on polygons of at most ``quadmesh.thin.corridor.SECTOR_RETRY_MAX`` vertices)
 LADDER_SECTOR_CHORDS = (16, 8)
