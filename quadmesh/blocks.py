@@ -111,8 +111,16 @@ MAX_CONFLICTS = 150_000
 BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
 SEARCH_SECONDS = 3.0
-#: wall-clock seconds the search for a ladder along the polygon as one corridor may take
+#: wall-clock seconds each search for a ladder along the polygon as one corridor may take at
+#: least
 LADDER_SECONDS = 5.0
+#: ... and per polygon vertex, where that is longer: the layout search grows with the walls'
+#: length (measured: a 1,562-vertex river closes after 15 s on a quiet machine and 22 s under
+#: load, rivers of 380-722 vertices in 0.7-4.2 s)
+LADDER_SECONDS_PER_VERTEX = 0.02
+#: least chord counts of the ladder's sector crosscuts, each searched for in turn (the second
+#: only on polygons of at most ``quadmesh.thin.corridor.SECTOR_RETRY_MAX`` vertices)
+LADDER_SECTOR_CHORDS = (16, 8)
 #: a ladder mesh is used only if no edge is longer than this many times the target size
 LADDER_MAX_EDGE = 2.5
 #: default target edge length, as a fraction of the polygon's diameter
@@ -2007,7 +2015,8 @@ def mesh_blocks(
     except BlockLayoutError as exc:
         # no straight cuts close: the polygon as one corridor (strokes, round shapes with two
         # ends), else a collar around a lattice core (round and dense outlines)
-        ladder = _ladder_mesh(z, h)
+        why: list[str] = []
+        ladder = _ladder_mesh(z, h, why)
         if ladder is not None:
             return ladder
         from .rings import RingLayoutError, ring_layout
@@ -2016,8 +2025,8 @@ def mesh_blocks(
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
             raise BlockLayoutError(
-                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon or a "
-                f"collar around a lattice core close ({ring_exc.args[0]})"
+                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon "
+                f"({why[-1]}) or a collar around a lattice core close ({ring_exc.args[0]})"
             ) from exc
     # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
     # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
@@ -2029,28 +2038,51 @@ def mesh_blocks(
 
 
 def _ladder_mesh(
-    z: NDArray[np.complex128], size: float
+    z: NDArray[np.complex128], size: float, why: list[str] | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, None] | None:
     """The polygon meshed as one corridor (:func:`quadmesh.thin.corridor.mesh_corridor`): a
     ladder of convex straight cells with corners in [60°, 120°] between its two ends, refined
     with about four quads across and none longer than ``size``; round ends and bends are
-    vertex sectors.  None when the polygon has no such ladder, or when the sectors' spokes would
-    be longer than :data:`LADDER_MAX_EDGE` times ``size`` (the polygon is too wide for a
-    ladder at this size)."""
-    from .errors import ThinPartError
-    from .thin.corridor import ladder_layout, mesh_corridor
+    vertex sectors.
 
-    try:
-        lad = ladder_layout(z, deadline=time.perf_counter() + LADDER_SECONDS)
-        cm = mesh_corridor(z, size=size, lay=lad)
-    except ThinPartError:
+    The ladder is searched for with sector crosscuts of at least 16 chords and, on polygons of
+    at most :data:`quadmesh.thin.corridor.SECTOR_RETRY_MAX` vertices, again with at least 8
+    (:data:`LADDER_SECTOR_CHORDS`), each search within :data:`LADDER_SECONDS` or
+    :data:`LADDER_SECONDS_PER_VERTEX` per polygon vertex, the longer; of the meshes
+    whose edges are all at most :data:`LADDER_MAX_EDGE` times ``size`` the one with fewer quads
+    is kept (the coarser sectors put fewer points across the corridor, but their layout may
+    need more cells).  None when no search gives such a mesh: the polygon has no ladder, or
+    the sectors' spokes would be long needles (the polygon is too wide for a ladder at this
+    size); each search's reason is then appended to ``why`` when given (a list)."""
+    from .errors import ThinPartError
+    from .thin.corridor import SECTOR_RETRY_MAX, ladder_layout, mesh_corridor
+
+    chords = LADDER_SECTOR_CHORDS if len(z) <= SECTOR_RETRY_MAX else LADDER_SECTOR_CHORDS[:1]
+    seconds = max(LADDER_SECONDS, LADDER_SECONDS_PER_VERTEX * len(z))
+    best = None
+    for least in chords:
+        try:
+            lad = ladder_layout(z, deadline=time.perf_counter() + seconds, sector_chords=least)
+            cm = mesh_corridor(z, size=size, lay=lad)
+        except ThinPartError as exc:
+            if why is not None:
+                why.append(str(exc.args[0]) if exc.args else type(exc).__name__)
+            continue
+        checkpoint()
+        # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
+        # wide for the size (a disk, say) their spokes would be long needles, not quads of the
+        # size
+        q = cm.vertices[cm.quads]
+        longest = float(np.abs(np.roll(q, -1, axis=1) - q).max())
+        if longest > LADDER_MAX_EDGE * size:
+            if why is not None:
+                why.append(f"its sectors' longest edge is {longest / size:.3g} × the size")
+            continue
+        if best is None or len(cm.quads) < len(best[1].quads):
+            best = (lad, cm)
+    if best is None:
         return None
-    checkpoint()
-    # round ends and bends are sectors with a fixed number of spokes: on a polygon that is
-    # wide for the size (a disk, say) their spokes would be long needles, not quads of the size
-    q = cm.vertices[cm.quads]
-    if np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * size:
-        return None
+    lad, cm = best
     pts = np.asarray(lad.vertices, dtype=np.complex128)
     cells = np.asarray(lad.cells, dtype=np.int64).reshape(-1, 4)
     lay = BlockLayout(

@@ -322,9 +322,13 @@ def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
 
 
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
+    """The fallback message names each route's reason: the cuts', the ladder's (in brackets
+    after it) and the collar's."""
     res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
+    ladder = res.fallback.split("nor does a ladder of straight cells along the polygon (")[1]
+    assert ladder.split(")")[0].strip()  # the ladder's own reason
     assert res.pieces and res.verification.ok
 
 
@@ -562,3 +566,37 @@ def test_a_ladder_is_refused_where_its_ends_would_be_needles() -> None:
     assert np.abs(np.roll(q, -1, axis=1) - q).max() > LADDER_MAX_EDGE * h
     assert _ladder_mesh(z, h) is None
     assert mesh_polygon(load_example("octagon"), MeshOptions(method="blocks")).blocks.kind == "ring"
+
+
+def _corner_angles_deg(xy: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Every corner angle of every quad, in degrees, from the coordinates alone."""
+    q = xy[quads]  # (Q, 4, 2)
+    a = np.roll(q, 1, axis=1) - q
+    b = np.roll(q, -1, axis=1) - q
+    cos = (a * b).sum(axis=2) / (np.linalg.norm(a, axis=2) * np.linalg.norm(b, axis=2))
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+@pytest.mark.parametrize("index", [1, 4, 9])
+def test_walk_ladders_keep_the_coarser_sectors_when_they_give_fewer_quads(index: int) -> None:
+    """A buffered random walk of the corridor families closes by a ladder; its layout is
+    searched for with sector crosscuts of at least 16 and of at least 8 chords, and the mesh
+    with fewer quads is kept: never more quads than the 16-chord ladder alone, at most 55 per
+    polygon vertex, every corner angle (recomputed from the coordinates) in [60°, 120°]."""
+    from quadmesh.families import family_members
+    from quadmesh.thin.corridor import ladder_layout
+
+    m = family_members("walks")[index]
+    res = mesh_polygon(m.vertices, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks.kind == "ladder"
+    zz = res.mesh.z + res.mesh_origin
+    ang = _corner_angles_deg(np.column_stack([zz.real, zz.imag]), res.mesh.quads)
+    assert ang.min() >= 60.0 - 1e-7 and ang.max() <= 120.0 + 1e-7
+    n = len(validate_polygon(m.vertices).z)
+    assert res.mesh.n_quads <= 55 * n
+    z = validate_polygon(m.vertices).z - res.origin
+    h = default_block_size(z)
+    only16 = mesh_corridor(z, size=h, lay=ladder_layout(z, sector_chords=16))
+    assert res.mesh.n_quads <= len(only16.quads)
+    if index in (1, 9):  # measured: 8,732 -> 5,910 and 8,475 -> 4,425 quads
+        assert res.mesh.n_quads < 0.8 * len(only16.quads)
