@@ -38,6 +38,7 @@ Plane points are complex128.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -279,6 +280,7 @@ def transition_mesh(
     u: ArrayLike | None = None,
     at: float = 0.5,
     p_coarse: ArrayLike | None = None,
+    polish: bool = True,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
     [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
@@ -437,7 +439,7 @@ def transition_mesh(
         qs = spec[rows, 0]
         near = np.isin(quad_arr, np.concatenate([free, qs])).any(axis=1)
         lq, ex = quad_arr[near], exact_all[near]
-        if min(_margin(z, lq, ex), _fermat_room(z, spec[rows]).min()) >= MIN_MARGIN:
+        if min(_margin(z, lq, ex), _fermat_room(z, spec[rows]).min()) >= MIN_MARGIN or not polish:
             continue
         z = _polish(z, lq, ex, free, spec[rows])
     margin = _margin(z, quad_arr, exact_all)
@@ -612,6 +614,7 @@ def transition_cascade(
     n_coarse: int,
     partial: bool = False,
     n_along: int = 1,
+    deadline: float | None = None,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -624,7 +627,9 @@ def transition_cascade(
 
     With ``partial``, the cascade stops at the first stage that does not fit (or finds no
     place to split) and the coarse side carries the rows reached so far
-    (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.
+    (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.  After
+    ``deadline`` (a :func:`time.monotonic` value) stages are built from the template alone
+    (no optimisation of their pairs).
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
@@ -691,7 +696,8 @@ def transition_cascade(
         lo = u_hi - du
         sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
         try:
-            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc))
+            polish = deadline is None or time.monotonic() < deadline
+            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc), polish=polish)
         except TransitionError:
             if not partial:
                 raise

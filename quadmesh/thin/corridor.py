@@ -767,6 +767,11 @@ def mesh_corridor(
     raise error
 
 
+#: Time (seconds) a corridor's transition cascades may spend optimising pairs; after it they
+#: are built from the template alone (fewer stages succeed, none is slow).
+CASCADE_SECONDS = 1.5
+
+
 #: Polygons with more vertices than this go straight to sectors of 16 chords (a second layout
 #: search of a 1,000-vertex river takes minutes).
 SECTOR_RETRY_MAX = 400
@@ -1144,6 +1149,7 @@ def _run_params(
     V = lay.vertices
     nr = len(lay.rungs)
     rl = np.abs(V[lay.rungs[:, 1]] - V[lay.rungs[:, 0]])
+    deadline = time.monotonic() + CASCADE_SECONDS
     mid = 0.5 * (V[lay.rungs[:, 1]] + V[lay.rungs[:, 0]])
     params: list[np.ndarray] = [np.zeros(0)] * nr
     for run in _runs(lay):
@@ -1170,7 +1176,7 @@ def _run_params(
                     cell = _cell_between(lay, min(ra, rb))
                     try:
                         tm, p = _cascade_cell(
-                            lay, cell, ra, p, target, _cell_along(lay, cell, size)
+                            lay, cell, ra, p, target, _cell_along(lay, cell, size), deadline
                         )
                     except TransitionError:
                         pass  # this cell stays a plain grid
@@ -1191,7 +1197,9 @@ def _run_params(
                 ra, rb = int(path[j]), int(path[j + 1])
                 cell = _cell_between(lay, min(ra, rb))
                 try:
-                    tm, p = _cascade_cell(lay, cell, ra, p, target, _cell_along(lay, cell, size))
+                    tm, p = _cascade_cell(
+                        lay, cell, ra, p, target, _cell_along(lay, cell, size), deadline
+                    )
                 except TransitionError as exc:
                     raise ThinPartError(
                         f"the corridor cannot change its number of points across near "
@@ -1249,7 +1257,13 @@ def _cell_along(lay: CorridorLayout, cell: int, size: float) -> int:
 
 
 def _cascade_cell(
-    lay: CorridorLayout, cell: int, fine_rung: int, p_fine: np.ndarray, n_coarse: int, n_along: int
+    lay: CorridorLayout,
+    cell: int,
+    fine_rung: int,
+    p_fine: np.ndarray,
+    n_coarse: int,
+    n_along: int,
+    deadline: float | None = None,
 ):
     """As many transition stages as fit (:func:`quadmesh.transition.transition_cascade`) in
     the ladder cell ``cell``, from the ``p_fine`` points of rung ``fine_rung`` (parameters
@@ -1260,11 +1274,18 @@ def _cascade_cell(
     (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
     if fine_rung == k1:  # fine side u = 1: the cell as it is
         corners = V[[a, a2, b2, b]]
-        tm = transition_cascade(corners, p_fine, n_coarse - 1, partial=True, n_along=n_along)
+        tm = transition_cascade(
+            corners, p_fine, n_coarse - 1, partial=True, n_along=n_along, deadline=deadline
+        )
         return tm, tm.p_coarse
     corners = V[[b2, b, a, a2]]  # turned by 180°: u and p reversed
     tm = transition_cascade(
-        corners, 1.0 - p_fine[::-1], n_coarse - 1, partial=True, n_along=n_along
+        corners,
+        1.0 - p_fine[::-1],
+        n_coarse - 1,
+        partial=True,
+        n_along=n_along,
+        deadline=deadline,
     )
     return tm, 1.0 - tm.p_coarse[::-1]
 
@@ -1628,10 +1649,19 @@ def mesh_arm(
     par = _param_list(np.sort(t.real[on]))
     # the arm's own counts, changed to the body's by a transition cascade next to the cut; the
     # arm carrying the body's points along its whole length where that does not work
+    cut = {len(lay.rungs) - 1: par}
     try:
-        cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par}, transitions=True)
+        cm_t = _mesh_layout(lay, z, across, cut, transitions=True)
     except ThinPartError:
-        cm = _mesh_layout(lay, z, across, {len(lay.rungs) - 1: par})
+        cm_t = None
+    try:
+        cm = _mesh_layout(lay, z, across, cut)
+    except ThinPartError:
+        if cm_t is None:
+            raise
+        cm = cm_t
+    if cm_t is not None and len(cm_t.quads) < len(cm.quads):
+        cm = cm_t
     used = np.unique(cm.quads)
     remap = np.full(cm.vertices.size, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
