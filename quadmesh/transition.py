@@ -38,7 +38,6 @@ Plane points are complex128.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -229,6 +228,8 @@ class TransitionMesh:
         p_coarse: the coarse side's parameters (from c0 to c3).
         margin: smallest distance (degrees) of the placed angles from 60° and 120° (the exact
             120° angles at the valence-3 vertices excepted).
+        polished: how many pairs needed the optimisation (the template left them too close to
+            60° or 120°).
     """
 
     points: NDArray[np.complex128]
@@ -240,6 +241,7 @@ class TransitionMesh:
     u: NDArray[np.float64]
     p_coarse: NDArray[np.float64]
     margin: float
+    polished: int = 0
 
 
 def _ruled(corners: NDArray[np.complex128], u: ArrayLike, p: ArrayLike) -> NDArray[np.complex128]:
@@ -280,7 +282,7 @@ def transition_mesh(
     u: ArrayLike | None = None,
     at: float = 0.5,
     p_coarse: ArrayLike | None = None,
-    polish: bool = True,
+    polish: list[int] | None = None,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
     [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
@@ -433,15 +435,21 @@ def transition_mesh(
     exact_all = np.isin(quad_arr, q_ids)
     # per pair: the quads around its free points; polish the pairs that miss MIN_MARGIN
     free_sets = np.stack([o_ids[i0], w_ids, o_ids[i1], o_ids[i2]], axis=1)
+    polished = 0
     for g in range(pairs.size):
         free = free_sets[g]
         rows = np.array([2 * g, 2 * g + 1])  # this pair's two split rows in ``spec``
         qs = spec[rows, 0]
         near = np.isin(quad_arr, np.concatenate([free, qs])).any(axis=1)
         lq, ex = quad_arr[near], exact_all[near]
-        if min(_margin(z, lq, ex), _fermat_room(z, spec[rows]).min()) >= MIN_MARGIN or not polish:
+        if min(_margin(z, lq, ex), _fermat_room(z, spec[rows]).min()) >= MIN_MARGIN:
             continue
+        if polish is not None:
+            if polish[0] <= 0:
+                break
+            polish[0] -= 1
         z = _polish(z, lq, ex, free, spec[rows])
+        polished += 1
     margin = _margin(z, quad_arr, exact_all)
     room = _fermat_room(z, spec)
     if room.size and room.min() < MIN_MARGIN:
@@ -466,6 +474,7 @@ def transition_mesh(
         u=u,
         p_coarse=p_side,
         margin=margin,
+        polished=polished,
     )
 
 
@@ -515,13 +524,20 @@ def _polish(
     best_x, best_m = np.zeros(2 * nf), float(margins(np.zeros(2 * nf)).min())
     if best_m < -HOPELESS:
         return z_all  # the template is far off (a folded pair): no local repair reaches it
+    enough = 2 * MIN_MARGIN
+
+    def stop(xk: NDArray[np.float64]) -> None:
+        if margins(xk).min() >= enough:
+            raise StopIteration  # good enough: the pair is accepted above MIN_MARGIN
+
     for trial in range(2):
         x = np.zeros(2 * nf) if trial == 0 else 0.1 * rng.standard_normal(2 * nf)
-        x = minimize(soft, x, args=(2.0,), method="BFGS", options={"maxiter": 40}).x
-        if margins(x).min() >= 3 * MIN_MARGIN:
+        opts = {"maxiter": 40}
+        x = minimize(soft, x, args=(2.0,), method="BFGS", options=opts, callback=stop).x
+        if margins(x).min() >= enough:
             best_x, best_m = x, float(margins(x).min())
             break
-        x = minimize(soft, x, args=(0.5,), method="BFGS", options={"maxiter": 40}).x
+        x = minimize(soft, x, args=(0.5,), method="BFGS", options=opts, callback=stop).x
         x0 = np.concatenate([x, [margins(x).min()]])
         res = minimize(
             lambda v: -v[-1],
@@ -535,7 +551,7 @@ def _polish(
             m = float(margins(cand).min())
             if m > best_m:
                 best_x, best_m = cand, m
-        if best_m >= 3 * MIN_MARGIN:
+        if best_m >= enough:
             break
     loc = at(best_x)
     loc[spec[:, 0]] = fermat_point(loc[spec[:, 1]], loc[spec[:, 2]], loc[spec[:, 3]])
@@ -614,7 +630,7 @@ def transition_cascade(
     n_coarse: int,
     partial: bool = False,
     n_along: int = 1,
-    deadline: float | None = None,
+    budget: list[int] | None = None,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -627,9 +643,9 @@ def transition_cascade(
 
     With ``partial``, the cascade stops at the first stage that does not fit (or finds no
     place to split) and the coarse side carries the rows reached so far
-    (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.  After
-    ``deadline`` (a :func:`time.monotonic` value) stages are built from the template alone
-    (no optimisation of their pairs).
+    (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.  ``budget``
+    (a one-item list, shared by the caller's cascades and decreased here) bounds how many pairs
+    may be optimised; when it is spent, stages are built from the template alone.
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
@@ -696,8 +712,7 @@ def transition_cascade(
         lo = u_hi - du
         sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
         try:
-            polish = deadline is None or time.monotonic() < deadline
-            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc), polish=polish)
+            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc), polish=budget)
         except TransitionError:
             if not partial:
                 raise

@@ -767,9 +767,10 @@ def mesh_corridor(
     raise error
 
 
-#: Time (seconds) a corridor's transition cascades may spend optimising pairs; after it they
-#: are built from the template alone (fewer stages succeed, none is slow).
-CASCADE_SECONDS = 1.5
+#: How many pairs of split rows a corridor's transition cascades may optimise (0.1–0.3 s each);
+#: beyond it stages are built from the template alone (fewer succeed, none is slow). A count,
+#: not a time, so that the mesh does not depend on the machine's load.
+CASCADE_POLISH = 80
 
 
 #: Polygons with more vertices than this go straight to sectors of 16 chords (a second layout
@@ -1149,7 +1150,7 @@ def _run_params(
     V = lay.vertices
     nr = len(lay.rungs)
     rl = np.abs(V[lay.rungs[:, 1]] - V[lay.rungs[:, 0]])
-    deadline = time.monotonic() + CASCADE_SECONDS
+    budget = [CASCADE_POLISH]
     mid = 0.5 * (V[lay.rungs[:, 1]] + V[lay.rungs[:, 0]])
     params: list[np.ndarray] = [np.zeros(0)] * nr
     for run in _runs(lay):
@@ -1176,7 +1177,7 @@ def _run_params(
                     cell = _cell_between(lay, min(ra, rb))
                     try:
                         tm, p = _cascade_cell(
-                            lay, cell, ra, p, target, _cell_along(lay, cell, size), deadline
+                            lay, cell, ra, p, target, _cell_along(lay, cell, size), budget
                         )
                     except TransitionError:
                         pass  # this cell stays a plain grid
@@ -1198,7 +1199,7 @@ def _run_params(
                 cell = _cell_between(lay, min(ra, rb))
                 try:
                     tm, p = _cascade_cell(
-                        lay, cell, ra, p, target, _cell_along(lay, cell, size), deadline
+                        lay, cell, ra, p, target, _cell_along(lay, cell, size), budget
                     )
                 except TransitionError as exc:
                     raise ThinPartError(
@@ -1263,7 +1264,7 @@ def _cascade_cell(
     p_fine: np.ndarray,
     n_coarse: int,
     n_along: int,
-    deadline: float | None = None,
+    budget: list[int] | None = None,
 ):
     """As many transition stages as fit (:func:`quadmesh.transition.transition_cascade`) in
     the ladder cell ``cell``, from the ``p_fine`` points of rung ``fine_rung`` (parameters
@@ -1275,7 +1276,7 @@ def _cascade_cell(
     if fine_rung == k1:  # fine side u = 1: the cell as it is
         corners = V[[a, a2, b2, b]]
         tm = transition_cascade(
-            corners, p_fine, n_coarse - 1, partial=True, n_along=n_along, deadline=deadline
+            corners, p_fine, n_coarse - 1, partial=True, n_along=n_along, budget=budget
         )
         return tm, tm.p_coarse
     corners = V[[b2, b, a, a2]]  # turned by 180°: u and p reversed
@@ -1285,7 +1286,7 @@ def _cascade_cell(
         n_coarse - 1,
         partial=True,
         n_along=n_along,
-        deadline=deadline,
+        budget=budget,
     )
     return tm, 1.0 - tm.p_coarse[::-1]
 
