@@ -384,9 +384,7 @@ def transition_mesh(
     for i, c in enumerate(kinds):
         ab, at = a_col[i], a_col[i + 1]
         ob, ot = o_ids[i], o_ids[i + 1]
-        if c == "P":
-            if i in w_of or i + 1 in w_of:  # never: W lines lie inside pairs
-                raise AssertionError("W on a plain row")
+        if c == "P":  # W lines lie inside pairs, never on a plain row
             quads.append((ab, ob, ot, at))
             quads.append((ob, r_col[line_f[i]], r_col[line_f[i + 1]], ot))
             continue
@@ -416,11 +414,9 @@ def transition_mesh(
     )
     spec = np.array(fermat_spec, dtype=np.int64).reshape(-1, 4)
 
-    def place_q(zz: NDArray[np.complex128]) -> None:
-        zz[spec[:, 0]] = fermat_point(zz[spec[:, 1]], zz[spec[:, 2]], zz[spec[:, 3]])
-
-    # template placement of every pair
-    speed = np.abs(_ruled(cn, u[column] + 1e-6, pc) - o_base) / 1e-6  # |dX/du| on each line
+    # template placement of every pair; |dX/du| on each line, exactly (X is bilinear)
+    c0, c1, c2, c3 = cn
+    speed = np.abs((c1 - c0) + pc * (c0 - c1 + c2 - c3))
     i0 = pairs
     i1, i2 = pairs + 1, pairs + 2
     h_lo = np.abs(o_base[i1] - o_base[i0])
@@ -430,7 +426,7 @@ def transition_mesh(
     z[o_ids[i2]] = _ruled(cn, u[column], pc[i2] - _BEND * (pc[i2] - pc[i1]))
     z[w_ids] = _ruled(cn, u[column] - _W_BACK * h_mid / speed[i1], pc[i1])
     z[o_ids[i1]] = _ruled(cn, u[column] + _O_AHEAD * h_mid / speed[i1], pc[i1])
-    place_q(z)
+    z[spec[:, 0]] = fermat_point(z[spec[:, 1]], z[spec[:, 2]], z[spec[:, 3]])
 
     exact_all = np.isin(quad_arr, q_ids)
     # per pair: the quads around its free points; polish the pairs that miss MIN_MARGIN
