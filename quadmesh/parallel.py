@@ -239,16 +239,27 @@ class PieceRunner:
                     running = [f for f in futures if not f.done()]
                     wait(running, timeout=INTERVAL, return_when=FIRST_COMPLETED)
                     checkpoint()  # polls cancel()
-                    now = sum(f.done() for f in futures)
-                    if now > finished:
-                        finished = now
-                        report(finished / m, min(finished + 1, m) / m)
+                    finished = self._advance(futures, finished, report)
+                # also when ``fut`` was already done: the stage's end (every task finished)
+                # is reported whatever order the workers finished in
+                finished = self._advance(futures, finished, report)
                 out = fut.result()
                 _merge(timings, out[-1])
                 yield out
         finally:
             for fut in futures:
                 fut.cancel()  # those not started: the run failed or was cancelled
+
+    @staticmethod
+    def _advance(
+        futures: Sequence[Future], finished: int, report: Callable[[float, float], None]
+    ) -> int:
+        """Report the share of finished tasks if it grew; returns the new count."""
+        m = len(futures)
+        now = sum(f.done() for f in futures)
+        if now > finished:
+            report(now / m, min(now + 1, m) / m)
+        return max(now, finished)
 
     def close(self, failed: bool = False) -> None:
         """Shut the runner's own pool down (``failed``: at once, stopping its workers)."""
