@@ -84,7 +84,9 @@ polygon without relaxed candidates (the 1004-vertex comb) pays nothing more.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
@@ -374,6 +376,10 @@ class ThickPiece:
             crowding refinement could split the piece further (it held a relaxed channel
             candidate at some overlap depth); NaN otherwise, when the refinement is off
             (``crowding_gap = 0``) or when the estimate failed.
+        inscribed_gap: the same estimate with f(0) at the centre of the largest inscribed
+            disk, when ``center`` was moved away from there because that point crowded the
+            map (:func:`_least_crowded`); NaN otherwise. It says how crowded the piece's shape
+            is (whether it is a corridor), whatever centre its map uses.
     """
 
     index: int
@@ -383,6 +389,7 @@ class ThickPiece:
     center: complex
     radius: float
     min_gap: float = float("nan")
+    inscribed_gap: float = float("nan")
 
     @property
     def vertices(self) -> np.ndarray:
@@ -950,10 +957,11 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
     gaps = [float("nan")] * len(raw)
     if opt.crowding_gap > 0:
         channels, raw, centres, gaps = _refine(z, segs, tree, r, opt, chosen, built, m)
+    centres = _uncrowd(raw, channels, centres)
 
     thick: list[ThickPiece] = []
     piece_of_end: dict[tuple[int, int], int] = {}
-    for k, ((v, s, cuts), (ctr, rad), gap) in enumerate(zip(raw, centres, gaps, strict=True)):
+    for k, ((v, s, cuts), (ctr, rad, g_in), gap) in enumerate(zip(raw, centres, gaps, strict=True)):
         pcs = tuple(PieceCrosscut(a, b, cid, e, rev) for a, b, cid, e, rev in cuts)
         for pc in pcs:
             piece_of_end[(pc.channel, pc.end)] = k
@@ -965,7 +973,9 @@ def decompose(polygon: object, options: DecomposeOptions | None = None) -> Decom
                 crosscuts=pcs,
                 center=ctr,
                 radius=rad,
-                min_gap=float(gap),
+                # the refinement's estimate holds for the inscribed centre only
+                min_gap=float(gap) if np.isnan(g_in) else float("nan"),
+                inscribed_gap=float(g_in),
             )
         )
     channels = [
@@ -1204,33 +1214,123 @@ def _centres(
     channels: list[Channel],
     polys: list[shapely.Polygon],
     tol: float,
-) -> list[tuple[complex, float]]:
+) -> list[tuple[complex, float, float]]:
     """Centre f(0) of each thick piece: the largest inscribed disk outside the thin parts.
 
     The paper (§7) maps 0 to "a point outside of all the thin parts hitting Ω_1", so that the
     expanded intervals (preimages of the outer crosscuts γ') have length < π.  We remove the
-    overlap bands Ω_3 (between γ' and γ) from the piece and take the centre of the largest
-    inscribed disk of the largest remaining component; the returned radius is that
-    disk's radius.
+    overlap bands Ω_3 (between γ' and γ) from the piece (:func:`_free_region`) and take the
+    centre of the largest inscribed disk of the largest remaining component; the returned
+    radius is that disk's radius (the third value, NaN, is filled by :func:`_uncrowd`).
     """
-    out = []
-    for (_, _, cuts), poly in zip(raw, polys, strict=True):
+    return [
+        (*_ridge_centre(_free_region(poly, cuts, channels), tol), float("nan"))
+        for (_, _, cuts), poly in zip(raw, polys, strict=True)
+    ]
+
+
+def _free_region(
+    poly: shapely.Polygon, cuts: list[tuple[int, int, int, int, bool]], channels: list[Channel]
+) -> shapely.Polygon:
+    """A piece without the overlap bands Ω_3 of its thin parts (the largest component left)."""
+    if not cuts:
+        return poly
+    bands = []
+    for _, _, cid, end, _ in cuts:
+        c = channels[cid]
+        g, go = c.crosscuts[end], c.outer_crosscuts[end]
+        bands.append(shapely.Polygon(_xy(np.concatenate([go, g[::-1]]))))
+    region = shapely.difference(poly, shapely.union_all(bands))
+    if region.geom_type != "Polygon":
+        parts = list(getattr(region, "geoms", []))
+        parts = [p for p in parts if p.geom_type == "Polygon"]
+        region = max(parts, key=lambda p: p.area) if parts else poly
+    if region.is_empty or region.area <= 1e-12 * poly.area:
         region = poly
-        if cuts:
-            bands = []
-            for _, _, cid, end, _ in cuts:
-                c = channels[cid]
-                g, go = c.crosscuts[end], c.outer_crosscuts[end]
-                bands.append(shapely.Polygon(_xy(np.concatenate([go, g[::-1]]))))
-            region = shapely.difference(poly, shapely.union_all(bands))
-            if region.geom_type != "Polygon":
-                parts = list(getattr(region, "geoms", []))
-                parts = [p for p in parts if p.geom_type == "Polygon"]
-                region = max(parts, key=lambda p: p.area) if parts else poly
-            if region.is_empty or region.area <= 1e-12 * poly.area:
-                region = poly
-        out.append(_ridge_centre(region, tol))
+    return region
+
+
+def _uncrowd(
+    raw: list[tuple[np.ndarray, np.ndarray, list[tuple[int, int, int, int, bool]]]],
+    channels: list[Channel],
+    centres: list[tuple[complex, float, float]],
+) -> list[tuple[complex, float, float]]:
+    """The centres of the final pieces, each moved where its map is least crowded when its
+    largest inscribed disk crowds it below :data:`CENTRE_GAP` (:func:`_least_crowded`). Run
+    after the crowding refinement, which cuts relaxed channels by the inscribed centres'
+    estimates: only what it could not cut is mapped from elsewhere."""
+    out = []
+    for (v, _, cuts), (c, r, _g) in zip(raw, centres, strict=True):
+        poly = shapely.Polygon(_xy(v))
+        out.append(
+            _least_crowded(np.asarray(v), poly, partial(_free_region, poly, cuts, channels), c, r)
+        )
     return out
+
+
+#: A piece whose disk map, with f(0) at its largest inscribed disk's centre, would squeeze
+#: some side to a prevertex gap below this (estimated by harmonic measure) gets the centre
+#: that is least crowded instead (:func:`_least_crowded`): ten times the smallest gap the
+#: Schwarz–Christoffel solve accepts (1e-14), so only maps that would be refused or nearly
+#: are moved (a map solved at 6e-13 from its inscribed centre and moved to 2e-11 gave quads
+#: a float64 check could not hold at 1e-9 of the polygon's size).
+CENTRE_GAP = 1e-13
+#: ... examined only for pieces whose area is at least this many squared inscribed radii (a
+#: disk has π, a square 4, a 3:2 rectangle 6; the bowl of a glyph "a" with its thin hook 10).
+CENTRE_ELONGATION = 6.0
+
+
+def _least_crowded(
+    w: np.ndarray,
+    piece: shapely.Polygon,
+    region: Callable[[], shapely.Polygon],
+    centre: complex,
+    radius: float,
+) -> tuple[complex, float, float]:
+    """The centre f(0) of a piece's disk map that keeps its smallest prevertex gap largest.
+
+    The largest inscribed disk sits in the widest place, which in a piece with long arms
+    (the legs of an "A", the stem of a "K") can be at one end: every side at the far end is
+    then squeezed by the whole length, exponentially (harmonic measure decays like
+    exp(−π·length/width) along a passage). For an elongated piece (area ≥ CENTRE_ELONGATION·r²)
+    whose estimated gap 2π·min ω is below :data:`CENTRE_GAP`, the centroids of a constrained
+    Delaunay triangulation of the piece lying in ``region()`` (the piece outside its thin
+    parts' bands, built only when needed) are tried as poles of one finite-element harmonic
+    measure, and the one with the largest smallest gap is returned (with its distance to the
+    region's boundary) when it gains at least a factor 10, with the estimate from ``centre``
+    as a third value; otherwise ``(centre, radius, nan)``. ``w``: the piece's vertices
+    (complex, counter-clockwise), ``piece`` the same as a polygon."""
+    from scipy.spatial import QhullError
+
+    from .conformal.center import harmonic_measure, harmonic_measures
+
+    keep = (centre, radius, float("nan"))
+    if radius <= 0 or piece.area < CENTRE_ELONGATION * radius * radius:
+        return keep
+    try:  # the estimate the conformal stage starts from (remembered for it)
+        g0 = 2.0 * np.pi * float(np.min(harmonic_measure(w, centre)))
+        if not g0 < CENTRE_GAP:
+            return keep
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError, QhullError):
+        return keep
+    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(piece))
+    cand = shapely.get_coordinates(shapely.centroid(tris))
+    free = region()
+    cand = cand[shapely.contains_xy(free, cand[:, 0], cand[:, 1])]
+    if cand.shape[0] > 160:
+        cand = cand[np.linspace(0, cand.shape[0] - 1, 160).round().astype(np.int64)]
+    poles = np.r_[centre, cand[:, 0] + 1j * cand[:, 1]]
+    try:
+        om = harmonic_measures(w, poles)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError, QhullError):
+        return keep
+    gap = np.min(om, axis=1)
+    gap = np.where(np.isfinite(gap), gap, -1.0)
+    k = int(np.argmax(gap))
+    if k == 0 or not gap[k] >= 10.0 * gap[0]:
+        return keep
+    c = complex(poles[k])
+    return c, float(shapely.distance(shapely.Point(c.real, c.imag), free.exterior)), g0
 
 
 def _ridge_centre(

@@ -220,8 +220,13 @@ def _run_stages(
         corridor, corridor_why = whole_corridor(dec)
         timings["corridor"] = time.perf_counter() - t0
         armed = None
-        if corridor is None and corridor_why:
-            # not a corridor as a whole: an arm (a corridor from one tip) and the body behind it
+        # not a corridor as a whole, or a piece whose map would be refused from its largest
+        # inscribed disk (its map can start from a less crowded centre, but an arm usually
+        # takes fewer quads): an arm (a corridor from one tip) and the body behind it
+        arm_first = corridor is None and (
+            bool(corridor_why) or any(np.isfinite(p.inscribed_gap) for p in dec.thick)
+        )
+        if arm_first:
             armed = _mesh_arm_and_body(
                 dec, options, run.cancel if run is not None else None, runner.executor
             )
@@ -237,7 +242,7 @@ def _run_stages(
             try:
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
-                if not corridor_why:  # several pieces, one of them too crowded: try an arm
+                if not arm_first:  # several pieces, one of them too crowded: try an arm
                     stop = run.cancel if run is not None else None
                     armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
                 if armed is None and corridor_why:
@@ -443,9 +448,14 @@ def _mesh_arm_and_body(
     or None when there is no arm or either part cannot be meshed. ``executor``: for the body's
     thick pieces (:func:`mesh_polygon`)."""
     from .errors import QuadmeshError
-    from .thin.corridor import arm_and_body, mesh_arm
+    from .thin.corridor import arm_and_body, crowded_place, mesh_arm
 
+    # an arm from either end of the polygon's longest stretch, else one reaching toward where
+    # the pieces are crowded (a serif, a spur)
     split = arm_and_body(dec.polygon.z)
+    if split is None:
+        toward = crowded_place(dec)
+        split = None if toward is None else arm_and_body(dec.polygon.z, toward)
     if split is None:
         return None
     lay, body = split

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from quadmesh.conformal import DiskMap
-from quadmesh.conformal.center import harmonic_measure
+from quadmesh.conformal.center import harmonic_measure, harmonic_measures, inscribed_center
 from quadmesh.conformal.diskmap import _levenberg_marquardt, _newton, _Problem
 from quadmesh.conformal.quadrature import QuadratureError, plan_integrals
 from quadmesh.decompose import DecomposeOptions, decompose
@@ -92,9 +92,10 @@ def test_glyph_s_piece_solves_at_the_crowding_limit() -> None:
 
 def test_square_spiral_piece_is_rejected_as_crowded() -> None:
     """Seven corridor legs (≈ 35 widths): the gaps are ≈ 1e-36; rejected early and clearly.
-    (The decomposition's crowding refinement now cuts this corridor; switched off here.)"""
+    (The decomposition's crowding refinement now cuts this corridor; switched off here. Its
+    map would start from a less crowded centre; here f(0) is the largest inscribed disk's.)"""
     p = decompose(load_example("square_spiral"), DecomposeOptions(crowding_gap=0.0)).thick[0]
-    z, c = p.z, p.center
+    z, c = p.z, inscribed_center(p.z)[0]
     t0 = time.perf_counter()
     with pytest.raises(ConformalMapError, match="crowding"):
         DiskMap.from_polygon(z, center=c, tol=TOL)
@@ -152,3 +153,29 @@ def test_crowding_rejection_carries_the_estimate_it_judged() -> None:
     gaps = np.mod(np.angle(np.roll(pre, -1) / pre), 2 * np.pi)
     big = est > 1e-3
     np.testing.assert_allclose(gaps[big], (est * (2 * np.pi / est.sum()))[big], rtol=1e-8)
+
+
+def test_harmonic_measures_match_the_poisson_kernel() -> None:
+    """Several poles at once, on a regular 256-gon (the unit disk to 1e-4): the measure of the
+    side from e^{iθ1} to e^{iθ2} seen from p is α/π − (θ2 − θ1)/2π (α: the angle the side
+    subtends at p); every row within 5 % of it, and the pole at 0 as the single-pole estimate."""
+    n = 256
+    z = np.exp(2j * np.pi * np.arange(n) / n)
+    poles = np.array([0.0, 0.5, 0.7j, -0.3 + 0.2j, 0.85 - 0.1j])
+    om = harmonic_measures(z, poles)
+    zn = np.roll(z, -1)
+    alpha = np.abs(np.angle((zn[None, :] - poles[:, None]) / (z[None, :] - poles[:, None])))
+    exact = alpha / np.pi - 1.0 / n
+    assert np.allclose(om.sum(axis=1), 1.0, atol=1e-12)
+    assert np.max(np.abs(om / exact - 1.0)) < 0.05
+    assert np.max(np.abs(om[0] / harmonic_measure(z, 0.0) - 1.0)) < 0.05
+
+
+def test_harmonic_measures_decay_along_a_strip() -> None:
+    """In a 12 × 1 strip, moving the pole by d toward the right end multiplies the right end's
+    measure by exp(πd) (exponential decay along a channel); a pole outside is a NaN row."""
+    z = np.array([0, 12, 12 + 1j, 1j])
+    om = harmonic_measures(z, np.array([4 + 0.5j, 6 + 0.5j, 8 + 0.5j, 13 + 0.5j]))
+    assert np.all(np.isnan(om[3]))
+    ratio = np.log(om[1:3, 1] / om[0:2, 1]) / (2.0 * np.pi)
+    assert np.allclose(ratio, 1.0, atol=0.05)

@@ -466,7 +466,9 @@ def test_refinement_removes_crowding(name: str, extra: int) -> None:
     plain = decompose(z, DecomposeOptions(crowding_gap=0.0))
     d = decompose(z)
     opt = d.options
-    assert _gaps(plain).min() < 1e-11
+    # crowded seen from the largest inscribed disks (without the refinement the spiral's map
+    # moves its centre to where its gap is 5e-9)
+    assert np.fmin(_gaps(plain), [p.inscribed_gap for p in plain.thick]).min() < 1e-11
     gaps = _gaps(d)
     assert gaps.min() >= opt.crowding_gap
     for p, g in zip(d.thick, gaps, strict=True):
@@ -559,3 +561,37 @@ def test_pieces_and_channels_are_described_in_the_users_numbering() -> None:
     d = decompose(spiral_ccw, DecomposeOptions(crowding_gap=0.0))
     text = d.describe_piece(0)
     assert "(through 0)" in text and "vertices" in text
+
+
+def _hammer() -> np.ndarray:
+    """A 4 × 4 head with a wavy handle (width 1, 12 long): the largest inscribed disk is in the
+    head, and the handle's walls are chains, so no channel is cut."""
+    t = np.linspace(0, 1, 80)
+    centre = np.column_stack([2 + 12 * t, 0.6 * np.sin(3 * np.pi * t)])
+    g = shapely.LineString(centre).buffer(0.5, cap_style="flat", join_style="round", quad_segs=4)
+    g = shapely.union(g, shapely.box(-2, -2, 2.2, 2))
+    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-3), 1.0)
+    return np.asarray(g.exterior.coords)[:-1]
+
+
+def test_a_crowded_piece_maps_from_its_least_crowded_centre() -> None:
+    """Seen from the head, the handle's far end has harmonic measure ~1e-19 (below what a
+    float64 map resolves); the piece's map centre moves into the handle, where its smallest
+    estimated gap is ~1e-9, and the piece keeps the head's estimate as ``inscribed_gap`` (it is a
+    corridor-like shape whatever centre its map uses)."""
+    from quadmesh.conformal.center import harmonic_measure
+
+    d = decompose(_hammer())
+    assert len(d.thick) == 1 and not d.channels
+    p = d.thick[0]
+    assert p.inscribed_gap < 1e-16
+    gap = 2 * np.pi * harmonic_measure(p.z, p.center).min()
+    assert gap > 1e-11 and gap > 1e6 * p.inscribed_gap
+    assert p.center.real > 4.0  # in the handle, away from the head
+    poly = shapely.Polygon(np.column_stack([p.z.real, p.z.imag]))
+    dist = poly.exterior.distance(shapely.Point(p.center.real, p.center.imag))
+    assert poly.contains(shapely.Point(p.center.real, p.center.imag))
+    assert p.radius == pytest.approx(dist, rel=1e-9)
+    # an ordinary piece keeps its inscribed centre
+    sq = decompose(np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]])).thick[0]
+    assert np.isnan(sq.inscribed_gap) and sq.center == pytest.approx(0.5 + 0.5j, abs=1e-3)

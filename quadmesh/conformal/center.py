@@ -128,7 +128,7 @@ def _graded_points(
 #: The last few harmonic measures computed: the decomposition estimates a piece's crowding
 #: from the same polygon and centre the piece's disk map then starts from.
 _MEASURES: collections.OrderedDict[tuple, np.ndarray] = collections.OrderedDict()
-_MEASURES_KEPT = 4
+_MEASURES_KEPT = 32
 _MEASURES_LOCK = threading.Lock()
 
 
@@ -170,28 +170,99 @@ def _harmonic_measure(
     cannot be built.
     """
     w = np.asarray(z, dtype=np.complex128).ravel()
-    n = w.size
     c = complex(c)
+    diam = 2.0 * float(np.max(np.abs(w - c)))
+    samples = _boundary_samples(w, diam, per_width)
+    bp = samples[0]
     poly = shapely.Polygon(np.column_stack([w.real, w.imag]))
+    ip = _graded_points(poly, bp, samples[1], diam / 12.0, grade)
+    checkpoint(0.2)
+    near_c = np.abs(ip - c) < 0.5 * float(np.min(np.abs(bp - c)))
+    ip = ip[~near_c]
+    P = np.concatenate([bp, ip, [c]])
+    A, inner = _laplacian(P, poly, bp.size)
+    if inner[-1] != P.size - 1:
+        raise PolygonError("harmonic measure: the triangulation missed the centre")
+    checkpoint(0.7)
+    rhs = np.zeros(inner.size)
+    rhs[-1] = 1.0
+    with np.errstate(all="ignore"):
+        g = spsolve(A[inner][:, inner].tocsc(), rhs)
+    if not np.all(np.isfinite(g)):
+        raise PolygonError("harmonic measure: singular finite-element system")
+    checkpoint(0.9)
+    return _side_measure(A, inner, g[:, None], samples, w.size)[0]
+
+
+def harmonic_measures(
+    z: np.ndarray, poles: np.ndarray, *, per_width: float = 4.0, grade: float = 0.4
+) -> np.ndarray:
+    """Harmonic measure of every side seen from each of several interior points ``poles``
+    (K, complex): a (K, n) array, row k as :func:`harmonic_measure` would give for
+    ``poles[k]`` (rows of poles outside the polygon or missed by the triangulation are NaN).
+    One finite-element mesh holds every pole as a node and one factorisation serves them all,
+    so choosing the centre least crowded for a conformal map costs about one estimate."""
+    from scipy.sparse.linalg import splu
+
+    w = np.asarray(z, dtype=np.complex128).ravel()
+    poles = np.asarray(poles, dtype=np.complex128).ravel()
+    poly = shapely.Polygon(np.column_stack([w.real, w.imag]))
+    out = np.full((poles.size, w.size), np.nan)
+    keep = np.flatnonzero(shapely.contains_xy(poly, poles.real, poles.imag))
+    if keep.size == 0:
+        return out
+    diam = 2.0 * float(np.max(np.abs(w[:, None] - poles[keep][None, :])))
+    samples = _boundary_samples(w, diam, per_width)
+    bp = samples[0]
+    ip = _graded_points(poly, bp, samples[1], diam / 12.0, grade)
+    # graded points closer to a pole than a quarter of its distance to the boundary go
+    d_b = cKDTree(np.column_stack([bp.real, bp.imag])).query(
+        np.column_stack([poles[keep].real, poles[keep].imag])
+    )[0]
+    hits = cKDTree(np.column_stack([poles[keep].real, poles[keep].imag])).query(
+        np.column_stack([ip.real, ip.imag])
+    )
+    ip = ip[hits[0] >= 0.25 * d_b[hits[1]]]
+    P = np.concatenate([bp, ip, poles[keep]])
+    A, inner = _laplacian(P, poly, bp.size)
+    pos = np.full(P.size, -1)
+    pos[inner] = np.arange(inner.size)
+    node = pos[bp.size + ip.size + np.arange(keep.size)]
+    ok = node >= 0
+    if not np.any(ok):
+        return out
+    rhs = np.zeros((inner.size, int(ok.sum())))
+    rhs[node[ok], np.arange(int(ok.sum()))] = 1.0
+    with np.errstate(all="ignore"):
+        g = splu(A[inner][:, inner].tocsc()).solve(rhs)
+    om = _side_measure(A, inner, g, samples, w.size)
+    out[keep[ok]] = om
+    return out
+
+
+def _boundary_samples(w: np.ndarray, diam: float, per_width: float):
+    """Boundary samples of the polygon ``w`` for the finite-element harmonic measure: spacing at
+    most half a side, a ``per_width``-th of the local feature size and a twelfth of ``diam``
+    (at most 200 per side). Returns (points, spacing per point, side per point, fraction along
+    the side, samples per side, side lengths)."""
+    n = w.size
     e = np.roll(w, -1) - w
     L = np.abs(e)
-    diam = 2.0 * float(np.max(np.abs(w - c)))
-    hmax = diam / 12.0
     lfs = _feature_sizes(w, diam)
-    hs = np.minimum(np.minimum(L / 2.0, lfs / per_width), hmax)
+    hs = np.minimum(np.minimum(L / 2.0, lfs / per_width), diam / 12.0)
     # at most 200 samples per side (a long side beside a narrow feature stays affordable)
     m = np.clip(np.ceil(L / hs - 1e-9).astype(np.int64), 1, 200)
     side = np.repeat(np.arange(n), m)
     first = np.repeat(np.cumsum(m) - m, m)
     frac = (np.arange(side.size) - first) / m[side]
     bp = w[side] + frac * e[side]
-    bh = (L / m)[side]
-    nb = bp.size
-    ip = _graded_points(poly, bp, bh, hmax, grade)
-    checkpoint(0.2)
-    near_c = np.abs(ip - c) < 0.5 * float(np.min(np.abs(bp - c)))
-    ip = ip[~near_c]
-    P = np.concatenate([bp, ip, [c]])
+    return bp, (L / m)[side], side, frac, m, L
+
+
+def _laplacian(P: np.ndarray, poly: shapely.Polygon, nb: int):
+    """The cotangent Laplacian of a Delaunay triangulation of the nodes ``P`` (the first ``nb``
+    on the boundary) restricted to triangles inside ``poly``, and the indices of the interior
+    nodes it uses. The Delaunay cotangent Laplacian is an M-matrix."""
     tri = Delaunay(np.column_stack([P.real, P.imag])).simplices
     checkpoint(0.5)
     cen = P[tri].mean(axis=1)
@@ -218,26 +289,34 @@ def _harmonic_measure(
     used = np.zeros(N, bool)
     used[tri.ravel()] = True
     inner = np.flatnonzero(used[nb:]) + nb
-    if not used[N - 1] or inner.size == 0:
-        raise PolygonError("harmonic measure: the triangulation missed the centre")
-    checkpoint(0.7)
-    rhs = np.zeros(inner.size)
-    rhs[-1] = 1.0
-    with np.errstate(all="ignore"):
-        g = spsolve(A[inner][:, inner].tocsc(), rhs)
-    if not np.all(np.isfinite(g)):
-        raise PolygonError("harmonic measure: singular finite-element system")
-    checkpoint(0.9)
-    flux = np.maximum(-(A[:nb][:, inner] @ g), 0.0)
-    # a node inside a side belongs to it; a vertex node is shared by its two sides in
-    # proportion to the adjacent sample spacings
-    om = np.bincount(side[frac > 0], weights=flux[frac > 0], minlength=n)
-    vk = side[frac == 0]
+    if inner.size == 0:
+        raise PolygonError("harmonic measure: the triangulation has no interior node")
+    return A, inner
+
+
+def _side_measure(A, inner: np.ndarray, g: np.ndarray, samples, n: int) -> np.ndarray:
+    """Per side, the boundary flux of the discrete Green's functions ``g`` (one per column),
+    normalised to sum to 1: a (columns, n) array. A node inside a side belongs to it; a
+    vertex node is shared by its two sides in proportion to the adjacent sample spacings."""
+    _bp, _bh, side, frac, m, L = samples
+    nb = side.size
+    flux = np.maximum(-(A[:nb][:, inner] @ g), 0.0)  # (nb, K)
+    K = flux.shape[1]
+    inside = frac > 0
+    vk = side[~inside]
     hn = (L / m)[vk]
     hp = (L / m)[(vk - 1) % n]
-    om += np.bincount(vk, weights=flux[frac == 0] * hn / (hn + hp), minlength=n)
-    om += np.bincount((vk - 1) % n, weights=flux[frac == 0] * hp / (hn + hp), minlength=n)
-    total = om.sum()
-    if not total > 0:
+    row = (np.arange(K) * n)[:, None]  # bins k·n + side, one block of n per column
+
+    def add(at: np.ndarray, f: np.ndarray) -> np.ndarray:
+        return np.bincount((row + at).ravel(), weights=f.ravel(), minlength=K * n)
+
+    fi, fv = flux[inside].T, flux[~inside].T
+    om = add(side[inside], fi)
+    om += add(vk, fv * hn / (hn + hp))
+    om += add((vk - 1) % n, fv * hp / (hn + hp))
+    om = om.reshape(K, n)
+    total = om.sum(axis=1)
+    if not np.all(total > 0):
         raise PolygonError("harmonic measure: no flux reached the boundary")
-    return om / total
+    return om / total[:, None]

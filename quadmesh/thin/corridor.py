@@ -97,10 +97,11 @@ def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.where(a < 0, a + 360.0, a)
 
 
-def corridor_tips(z: np.ndarray) -> tuple[int, int]:
-    """The two tips (s, e) of a corridor polygon: the apexes of the two ear triangles at the
-    ends of the longest path in the dual tree of a constrained Delaunay triangulation (the
-    path follows the corridor's medial axis; its ends are the corridor's two ends)."""
+def _dual_tree(z: np.ndarray):
+    """The dual tree of a constrained Delaunay triangulation of the polygon ``z``: the
+    triangles (T, 3) as polygon vertex indices, the tree as a sparse matrix weighted by the
+    distances between triangle centroids, and per triangle its *apex* — the vertex shared by
+    its two polygon edges (an ear), else the vertex with the smallest interior angle."""
     n = z.size
     poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
     tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
@@ -123,26 +124,51 @@ def corridor_tips(z: np.ndarray) -> tuple[int, int]:
     w = np.abs(cen[a] - cen[b])
     m = len(tri)
     g = coo_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
+    # polygon edges of each triangle: consecutive vertex pairs
+    d = (np.roll(tri, -1, axis=1) - tri) % n
+    bnd = (d == 1) | (d == n - 1)
+    ang = interior_angles(z)
+    apex = tri[np.arange(m), np.argmin(ang[tri], axis=1)]
+    for t in np.flatnonzero(bnd.sum(axis=1) >= 2):
+        pairs = [{int(tri[t, i]), int(tri[t, (i + 1) % 3])} for i in range(3) if bnd[t, i]]
+        common = pairs[0] & pairs[1]
+        if common:
+            apex[t] = common.pop()
+    return tri, g, apex, bnd.sum(axis=1) >= 2
+
+
+def corridor_tips(z: np.ndarray) -> tuple[int, int]:
+    """The two tips (s, e) of a corridor polygon: the apexes of the two ear triangles at the
+    ends of the longest path in the dual tree of a constrained Delaunay triangulation (the
+    path follows the corridor's medial axis; its ends are the corridor's two ends)."""
+    _tri, g, apex, _ear = _dual_tree(z)
     d0 = dijkstra(g, indices=0)
     t1 = int(np.argmax(d0))
-    d1, _pred = dijkstra(g, indices=t1, return_predecessors=True)
+    d1 = dijkstra(g, indices=t1)
     t2 = int(np.argmax(d1))
+    return int(apex[t1]), int(apex[t2])
 
-    def apex(t: int) -> int:
-        # the vertex of triangle t shared by its two polygon edges (an ear), else the vertex
-        # with the smallest interior angle
-        v = tri[t]
-        bnd = [
-            (v[i], v[(i + 1) % 3]) for i in range(3) if (v[(i + 1) % 3] - v[i]) % n in (1, n - 1)
-        ]
-        if len(bnd) >= 2:
-            common = set(bnd[0]) & set(bnd[1])
-            if common:
-                return int(common.pop())
-        ang = interior_angles(z)[v]  # radians
-        return int(v[int(np.argmin(ang))])
 
-    return apex(t1), apex(t2)
+def arm_tips(z: np.ndarray, toward: complex, count: int = 4) -> list[tuple[int, int]]:
+    """Up to ``count`` tip pairs (s, e) for arms reaching toward the point ``toward`` (where
+    a conformal map found the polygon crowded): s the apex of an ear triangle of the dual tree
+    of a constrained Delaunay triangulation, nearest ``toward`` first; e the apex of the
+    triangle farthest from it along the tree (the other end of the longest path from s)."""
+    z = np.asarray(z, dtype=np.complex128)
+    _tri, g, apex, ear = _dual_tree(z)
+    ears = np.flatnonzero(ear)
+    ears = ears[np.argsort(np.abs(z[apex[ears]] - toward), kind="stable")]
+    out: list[tuple[int, int]] = []
+    for t in ears:
+        s = int(apex[t])
+        if any(s == p[0] for p in out):
+            continue
+        e = int(apex[int(np.argmax(dijkstra(g, indices=int(t))))])
+        if e != s:
+            out.append((s, e))
+        if len(out) == count:
+            break
+    return out
 
 
 @dataclass
@@ -1597,15 +1623,25 @@ def _side_params(pts: np.ndarray, side: np.ndarray, u: complex, v: complex) -> n
     return t
 
 
-def arm_and_body(z: np.ndarray) -> tuple[CorridorLayout, np.ndarray] | None:
+def arm_and_body(
+    z: np.ndarray, toward: complex | None = None
+) -> tuple[CorridorLayout, np.ndarray] | None:
     """Split a polygon that is no corridor as a whole into an *arm* — the stretch from one tip
     that a ladder of straight cells reaches, cut by a rung one and a half widths before the
     ladder gets stuck — and the *body*, the rest (counter-clockwise, the cut as one of its
-    edges). None when the whole polygon is a corridor or no arm exists."""
+    edges). None when the whole polygon is a corridor or no arm exists.
+
+    The arm starts at one of the corridor's two tips (:func:`corridor_tips`), or, given
+    ``toward`` (a place where the polygon is too crowded for a conformal map: a serif, a spur),
+    at the ear tips nearest it (:func:`arm_tips`)."""
     z = np.asarray(z, dtype=np.complex128)
-    s, e = corridor_tips(z)
+    if toward is None:
+        s, e = corridor_tips(z)
+        candidates = [(s, e), (e, s)]  # from either tip
+    else:
+        candidates = arm_tips(z, toward)
     lay = None
-    for tips in ((s, e), (e, s)):  # from either tip
+    for tips in candidates:
         try:
             lay = ladder_layout(z, tips, partial=True)
         except ThinPartError:
@@ -1634,6 +1670,33 @@ def arm_and_body(z: np.ndarray) -> tuple[CorridorLayout, np.ndarray] | None:
         pts.append(lay.vertices[b])
     body = np.asarray(pts, dtype=np.complex128)
     return lay, body
+
+
+def crowded_place(dec) -> complex | None:
+    """Where the decomposition ``dec``'s thick pieces are most crowded for a conformal map:
+    the midpoint of the side with the smallest harmonic measure seen from its piece's centre
+    (the estimate of its prevertex gap, 2π·ω); among sides the estimate cannot tell apart
+    (no flux reaches them), the one farthest from the centre. None when no estimate exists."""
+    from scipy.spatial import QhullError
+
+    from ..conformal.center import harmonic_measure
+
+    best: tuple[float, float, complex] | None = None
+    for piece in dec.thick:
+        w = np.asarray(piece.z, dtype=np.complex128)
+        try:
+            om = harmonic_measure(w, piece.center)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, QhullError):
+            continue
+        if om.size != w.size or not np.all(np.isfinite(om)):
+            continue
+        mid = 0.5 * (w + np.roll(w, -1))
+        k = np.flatnonzero(om <= om.min())
+        k = int(k[np.argmax(np.abs(mid[k] - piece.center))])
+        key = (float(om[k]), -float(abs(mid[k] - piece.center)), complex(mid[k]))
+        if best is None or key[:2] < best[:2]:
+            best = key
+    return None if best is None else best[2]
 
 
 def mesh_arm(
@@ -1707,7 +1770,11 @@ def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
     if len(dec.thick) != 1 or dec.channels:
         return None, ""
     piece = dec.thick[0]
-    gap = piece.min_gap if np.isfinite(piece.min_gap) else _min_gap(piece.z, piece.center)
+    # how crowded the shape is, seen from its largest inscribed disk (a less crowded centre
+    # chosen for its map does not make a corridor any less of one)
+    gap = piece.inscribed_gap
+    if not np.isfinite(gap):
+        gap = piece.min_gap if np.isfinite(piece.min_gap) else _min_gap(piece.z, piece.center)
     if not (gap < CORRIDOR_GAP):
         return None, ""
     z = np.asarray(dec.polygon.z, dtype=np.complex128)
