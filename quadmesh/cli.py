@@ -425,10 +425,11 @@ def _cmd_info(args: argparse.Namespace) -> int:
 
 def _print_parts(poly) -> None:
     """The decomposition: thick pieces, narrow channels, and whether the polygon is meshed as
-    a corridor (a ladder of straight cells) or has an arm that is."""
+    a corridor (a ladder of straight cells), has an arm that is, or a bridge (a cut across a
+    corridor between two bodies, and the corridor from it)."""
     from .decompose import decompose
     from .errors import QuadmeshError
-    from .thin.corridor import arm_and_body, whole_corridor
+    from .thin.corridor import arm_and_body, bridge_cuts, bridge_layout, whole_corridor
 
     try:
         dec = decompose(poly)
@@ -454,6 +455,20 @@ def _print_parts(poly) -> None:
             f"arm: a corridor of {len(lay.rungs)} crosscuts from a tip, cut where the rest "
             f"({len(body)} vertices) begins"
         )
+        return
+    for cut in bridge_cuts(dec.polygon.z):
+        for far in (cut.second, cut.first):
+            got = bridge_layout(far)
+            if got is None:
+                continue
+            lay, _q, body = got
+            rest = "to the far end" if body is None else f"to a far body of {len(body)} vertices"
+            print(
+                f"bridge: a cut from ({cut.a.real:.6g}, {cut.a.imag:.6g}) to "
+                f"({cut.b.real:.6g}, {cut.b.imag:.6g}) and a corridor of {len(lay.rungs)} "
+                f"crosscuts from it {rest}"
+            )
+            return
 
 
 def _cmd_disk_demo(args: argparse.Namespace) -> int:

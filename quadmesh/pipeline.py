@@ -19,6 +19,7 @@ Stages:
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -242,9 +243,12 @@ def _run_stages(
             try:
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
+                stop = run.cancel if run is not None else None
                 if not arm_first:  # several pieces, one of them too crowded: try an arm
-                    stop = run.cancel if run is not None else None
                     armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
+                if armed is None and isinstance(exc, ConformalMapError):
+                    # crowded beyond what arms relieve: a bridge across the middle
+                    armed = _mesh_bridge(dec, options, stop, runner.executor)
                 if armed is None and corridor_why:
                     raise type(exc)(
                         f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
@@ -438,6 +442,148 @@ def _thick_and_thin(
     return asm, pieces, thin
 
 
+#: A bridge is tried only for the polygon the user gave, not inside the parts that arms and
+#: bridges mesh (a failing bridge costs several part meshes); and at most this many splits
+#: (cut and side) are meshed, those whose ladder reaches the far end first.
+BRIDGE_TRIES = 4
+#: ... and at most this many parts (near parts and far bodies) meshed in all: a count, not a
+#: time, so that what meshes does not depend on the machine.
+BRIDGE_MESHES = 8
+#: ... and only for polygons of at most this many vertices (each part of a long river or
+#: coast takes tens of seconds to mesh).
+BRIDGE_MAX_VERTICES = 300
+_nesting = threading.local()
+
+
+def _cut_ids(w: np.ndarray, za: complex, zb: complex) -> np.ndarray | None:
+    """Indices of the points of ``w`` on the segment from ``za`` to ``zb`` (both ends, which
+    must be points of ``w`` exactly), in order from ``za``; None when an end is missing."""
+    t = (w - za) / (zb - za)
+    on = np.flatnonzero((np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12))
+    ends = [np.flatnonzero(w == za), np.flatnonzero(w == zb)]
+    if ends[0].size != 1 or ends[1].size != 1:
+        return None
+    return np.r_[ends[0], on[np.argsort(t.real[on])], ends[1]]
+
+
+def _mesh_bridge(
+    dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
+):
+    """A polygon crowded along a corridor between two bodies (the two ends of a "C", a glyph's
+    bowl and its ball terminal), split by a straight crosscut across the corridor's middle
+    (:func:`~quadmesh.thin.corridor.bridge_cuts`): the part on one side meshed by
+    :func:`mesh_polygon`, the other side entered by a ladder from the cut — a *bridge*, started
+    from a virtual cap beyond the cut so that its first rung is the cut — up to where it gets
+    stuck, the rest behind it (the far body) meshed by :func:`mesh_polygon`. The bridge's first
+    rung takes the near part's points on the cut and its last rung the far body's; their counts
+    meet by transition cascades, which change a count by two at a time, so a far cut whose
+    count differs in parity is moved one to three rungs back (:func:`_bridge_mesh`). Splits whose
+    far side is one corridor (no far body) are tried first; at most :data:`BRIDGE_TRIES` splits
+    and :data:`BRIDGE_MESHES` part meshes, only for the user's polygon itself (not inside parts)
+    and for at most :data:`BRIDGE_MAX_VERTICES` vertices. Returns (assembler, the near part's
+    thick-piece results, thin-part results, the near part's decomposition) or None; the far
+    body's quads are in the mesh, its stage results are not kept."""
+    from .errors import QuadmeshError
+    from .thin.corridor import bridge_cuts, bridge_layout, shorter_bridges
+
+    depth = getattr(_nesting, "value", 0)
+    if depth > 0 or dec.polygon.z.size > BRIDGE_MAX_VERTICES:
+        return None
+
+    meshes = [BRIDGE_MESHES]
+
+    def part(w: np.ndarray) -> MeshResult | None:
+        if meshes[0] <= 0:
+            return None
+        meshes[0] -= 1
+        try:
+            r = mesh_polygon(
+                np.column_stack([w.real, w.imag]), options, cancel=cancel, executor=executor
+            )
+        except Cancelled:
+            raise
+        except QuadmeshError:
+            return None
+        return None if (r.mesh_origin or r.origin) else r
+
+    splits = []
+    for cut in bridge_cuts(dec.polygon.z):
+        for near, far in ((cut.first, cut.second), (cut.second, cut.first)):
+            got = bridge_layout(far)
+            if got is not None:
+                splits.append((near, *got))
+    # a far side that is one corridor first: its bridge has one fixed end only
+    splits.sort(key=lambda t: t[3] is not None)
+    _nesting.value = depth + 1
+    try:
+        for near, lay, q, body in splits[:BRIDGE_TRIES]:
+            near_r = part(near)
+            if near_r is None:
+                continue
+            v = lay.vertices
+            start = _cut_ids(near_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+            if start is None:
+                continue
+            # the far body's cut: where the ladder stops, else a rung or three before (its mesh
+            # then puts another number of points on the cut; runs keep their parity)
+            ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q)]
+            for lay_k, body_k in ends:
+                got = _bridge_mesh(lay_k, q, near_r, start, body_k, part)
+                if got is not None:
+                    return got
+    finally:
+        _nesting.value = depth
+    return None
+
+
+def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body, part):
+    """The bridge ``lay`` (first rung on the near part's cut, ``start``: the near mesh's points
+    there in order) meshed and glued to the near part's mesh and, when ``body`` is given, to
+    that body's mesh (``part(body)``): (assembler, pieces, thin parts, decomposition) as in
+    :func:`_mesh_bridge`, or None when the body does not mesh, the two ends' point counts
+    differ in parity, or the ladder cannot join them."""
+    from .thin.corridor import mesh_arm
+
+    v = lay.vertices
+    body_r, end = None, None
+    if body is not None:
+        body_r = part(body)
+        if body_r is None:
+            return None
+        end = _cut_ids(body_r.mesh.z, v[lay.rungs[-1][0]], v[lay.rungs[-1][1]])
+        if end is None or (end.size - start.size) % 2:
+            return None
+    try:
+        arm = mesh_arm(
+            lay, q, None if body_r is None else body_r.mesh.z, start_points=near_r.mesh.z
+        )
+    except ThinPartError:
+        return None
+    if start.size != arm.start.size or (end is not None and end.size != arm.cut.size):
+        return None
+    asm = Assembler()
+    gl_parts = []
+    for r in (near_r, body_r):
+        if r is None:
+            continue
+        gz = asm.add_vertices(r.mesh.z)
+        src = np.zeros(len(r.mesh.quads), dtype=np.int64)
+        if r.quad_source is not None:
+            src = np.asarray(r.quad_source, dtype=np.int64)
+        for k in np.unique(src):
+            asm.add_quads(gz[r.mesh.quads[src == k]], source=int(k))
+        gl_parts.append(gz)
+    gl = np.full(arm.vertices.size, -1, dtype=np.int64)
+    gl[arm.start] = gl_parts[0][start]
+    if end is not None:
+        gl[arm.cut] = gl_parts[1][end]
+    own = gl < 0
+    gl[own] = asm.add_vertices(arm.vertices[own])
+    asm.add_quads(gl[arm.quads], source=3)
+    thin = [*near_r.thin, ThinPartResult("corridor", len(near_r.thin), arm, gl)]
+    return asm, list(near_r.pieces), thin, near_r.decomposition
+
+
 def _mesh_arm_and_body(
     dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
 ):
@@ -467,6 +613,8 @@ def _mesh_arm_and_body(
         t = (w - za) / (zb - za)
         return np.flatnonzero((np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)), t
 
+    depth = getattr(_nesting, "value", 0)
+    _nesting.value = depth + 1
     try:
         body_xy = np.column_stack([body.real, body.imag])
         inner = mesh_polygon(body_xy, options, cancel=cancel, executor=executor)
@@ -474,6 +622,8 @@ def _mesh_arm_and_body(
         raise
     except QuadmeshError:
         return None
+    finally:
+        _nesting.value = depth
     if inner.mesh_origin or inner.origin:
         return None
     bz = inner.mesh.z

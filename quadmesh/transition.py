@@ -664,7 +664,12 @@ def transition_cascade(
         width = float(np.abs(cn[2] - cn[1]))
         along = float(min(abs(cn[1] - cn[0]), abs(cn[2] - cn[3])))
         du = float(np.abs(q_even - pf).max()) * width / np.tan(np.radians(EVEN_TILT)) / along
-        if 0.0 < du < 0.5:
+        if du >= 0.5 and partial:
+            # too uneven for this cell: it evens the rows only part of the way (a convex
+            # combination of two increasing lists, so still increasing); the next cell goes on
+            q_even = pf + (q_even - pf) * (0.5 / du)
+            du = 0.5
+        if 0.0 < du <= 0.5:
             sub = _ruled(cn, np.array([1.0 - du, 1.0, 1.0, 1.0 - du]), np.array([0, 0, 1.0, 1]))
             grid = _ruled(sub, np.array([0.0, 1.0])[None, :], np.stack([q_even, pf], axis=1))
             zz = grid.ravel()

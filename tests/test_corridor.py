@@ -308,3 +308,45 @@ def test_connection_angles_without_the_core_match_the_built_sector():
             assert np.abs(a - b).max() < 1e-9
             compared += 1
     assert compared > 150
+
+
+def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut():
+    """A C-shaped stroke with a round blob at each end: the cuts cross the stroke inside it at
+    angles in [60°, 120°] (with the cells' margin) on both walls; the two sides tile the
+    polygon; a ladder started from a virtual cap beyond the cut has the cut as its first rung,
+    and shortening it moves the far body's cut back rung by rung (the body growing by the cells
+    given up)."""
+    from quadmesh.thin.corridor import bridge_cuts, bridge_layout, shorter_bridges
+
+    t = np.linspace(0.15, 0.85, 60) * 2 * np.pi
+    centre = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
+    g = shapely.LineString(centre).buffer(0.4, cap_style="flat", join_style="round")
+    for p in (centre[0], centre[-1]):
+        g = g.union(shapely.Point(p).buffer(1.0, quad_segs=8))
+    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-4), 1.0)
+    z = validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+    cuts = bridge_cuts(z)
+    assert cuts
+    area = shapely.Polygon(np.column_stack([z.real, z.imag])).area
+    for c in cuts:
+        e = np.roll(z, -1) - z
+        ang = np.degrees(np.angle(np.array([e[c.ia] / (c.b - c.a), e[c.ib] / (c.a - c.b)]))) % 180
+        assert np.all((ang >= 60 + CELL_MARGIN - 1e-9) & (ang <= 120 - CELL_MARGIN + 1e-9))
+        parts = [shapely.Polygon(np.column_stack([w.real, w.imag])) for w in (c.first, c.second)]
+        assert all(p.is_valid and p.area > 0 for p in parts)
+        assert sum(p.area for p in parts) == pytest.approx(area, rel=1e-12)
+    c = cuts[0]
+    got = bridge_layout(c.second) or bridge_layout(c.first)
+    assert got is not None
+    lay, q, body = got
+    assert lay.kind[0] == "cap" and set(lay.rungs[0].tolist()) == {0, q.size - 3}
+    assert body is not None  # the blob stops the ladder
+    if True:
+        shorter = shorter_bridges(lay, q)
+        assert [len(s.rungs) for s, _ in shorter] == [
+            len(lay.rungs) - k for k in range(1, len(shorter) + 1)
+        ]
+        areas = [shapely.Polygon(np.column_stack([b.real, b.imag])).area for _, b in shorter]
+        assert np.all(
+            np.diff([shapely.Polygon(np.column_stack([body.real, body.imag])).area, *areas]) > 0
+        )

@@ -262,3 +262,23 @@ def test_serif_glyphs_mesh_from_a_less_crowded_centre(char) -> None:
     assert any(np.isfinite(p.inscribed_gap) for p in r.decomposition.thick)
     lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_a_bridge_joins_a_bowl_and_a_ball_terminal() -> None:
+    """Computer Modern "9": a bowl and a ball terminal joined by a long thin stroke — crowded
+    from every centre and with no arm at either end (refused before). A crosscut across the
+    stroke splits it; one side is meshed by the disk construction, the other is entered by a
+    ladder from the cut (a bridge) up to the terminal, which is meshed on its own; the
+    bridge's first and last rungs take the two meshes' points by index. Checked from outside."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("9", "cmr10")
+    r = mesh_polygon(xy)
+    bridge = [t for t in r.thin if t.kind == "corridor"]
+    assert len(bridge) == 1 and bridge[0].mesh.start is not None
+    # its first rung's points are shared with the quads of the near part
+    ids = bridge[0].global_index[bridge[0].mesh.start]
+    other = r.mesh.quads[np.asarray(r.quad_source) != 3]
+    assert ids.size > 2 and np.isin(ids, other).all()
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5

@@ -33,6 +33,7 @@ Cells (each a quadrilateral, corners counter-clockwise):
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import time
@@ -930,7 +931,7 @@ def _mesh_layout(
         quads = np.concatenate([quads, gl[sq]])
         cell = np.concatenate([cell, np.full(len(sq), -2 - k_s)])
     _check_ladder_angles(pts, quads, z)
-    return CorridorMesh(pts, quads, cell, lay, rung_ids[-1] if lay.open_end else None)
+    return CorridorMesh(pts, quads, cell, lay, rung_ids[-1] if lay.open_end else None, rung_ids[0])
 
 
 @dataclass
@@ -1672,6 +1673,199 @@ def arm_and_body(
     return lay, body
 
 
+#: Where a bridge's first rung may cross the corridor: fractions of the longest path through
+#: the polygon's dual tree, the middle first.
+BRIDGE_PLACES = (0.5, 0.4, 0.6, 0.3, 0.7)
+#: Depth of a bridge's virtual cap cell, in lengths of its rung: shallow enough that no rung end
+#: is sampled on its sides, so the ladder's first rung is the cut itself.
+BRIDGE_CAP = 0.05
+
+
+@dataclass(frozen=True)
+class BridgeCut:
+    """A straight crosscut across a corridor where a polygon is split for a bridge: from ``a``
+    on polygon edge ``ia`` to ``b`` on edge ``ib``; ``first`` runs from ``a`` round the
+    boundary to ``b`` (then back along the cut), ``second`` from ``b`` round to ``a``; both
+    counter-clockwise, the cut their last edge."""
+
+    a: complex
+    b: complex
+    ia: int
+    ib: int
+    first: np.ndarray
+    second: np.ndarray
+
+
+def bridge_cuts(z: np.ndarray, margin: float = CELL_MARGIN) -> list[BridgeCut]:
+    """Crosscuts that split the polygon ``z`` across a corridor in its middle (a bridge, the
+    corridor between two bodies: a glyph's bowl and its terminal, the two ends of a "C"): at
+    the fractions :data:`BRIDGE_PLACES` of the longest path through the dual tree of a
+    constrained Delaunay triangulation, from the nearest boundary point through that place
+    straight across to the far wall; kept when the segment lies inside the polygon and meets
+    both walls at angles in [60° + margin, 120° − margin] on either side."""
+    z = np.asarray(z, dtype=np.complex128)
+    n = z.size
+    tri, g, _apex, _ear = _dual_tree(z)
+    d0 = dijkstra(g, indices=0)
+    t1 = int(np.argmax(d0))
+    d1, pred = dijkstra(g, indices=t1, return_predecessors=True)
+    path = [int(np.argmax(d1))]
+    while path[-1] != t1 and pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    cen = z[tri].mean(axis=1)[path]
+    arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
+    if arc[-1] <= 0:
+        return []
+    poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
+    bnd = poly.exterior
+    e = np.roll(z, -1) - z
+    diam = float(np.ptp(z.real) + np.ptp(z.imag))
+    lo, hi = 60.0 + margin, 120.0 - margin
+    out: list[BridgeCut] = []
+    for f in BRIDGE_PLACES:
+        p = complex(np.interp(f * arc[-1], arc, cen.real), np.interp(f * arc[-1], arc, cen.imag))
+        q = shapely.get_coordinates(shapely.shortest_line(shapely.Point(p.real, p.imag), bnd))
+        a = complex(q[1, 0], q[1, 1])
+        if abs(p - a) <= 1e-12 * diam:
+            continue
+        u = (p - a) / abs(p - a)
+        far = a + 2.0 * diam * u
+        hit = shapely.get_coordinates(
+            shapely.intersection(shapely.LineString([(a.real, a.imag), (far.real, far.imag)]), bnd)
+        )
+        w = hit[:, 0] + 1j * hit[:, 1]
+        t = ((w - a) / u).real
+        w, t = w[t > 1e-9 * diam], t[t > 1e-9 * diam]
+        if w.size == 0:
+            continue
+        b = complex(w[np.argmin(t)])
+        # the edges holding a and b (the nearest, by distance to the segment)
+        te = np.clip((((np.array([a, b])[:, None] - z[None, :]) / e[None, :]).real), 0.0, 1.0)
+        dist = np.abs(z[None, :] + te * e[None, :] - np.array([a, b])[:, None])
+        ia, ib = (int(k) for k in np.argmin(dist, axis=1))
+        if ia == ib:
+            continue
+        ang = np.degrees(np.angle(np.array([e[ia] / (b - a), e[ib] / (a - b)]))) % 180.0
+        if not np.all((ang >= lo) & (ang <= hi)):
+            continue
+        eps = 1e-9 * (b - a)
+        seg = shapely.LineString(
+            [((a + eps).real, (a + eps).imag), ((b - eps).real, (b - eps).imag)]
+        )
+        if not poly.contains_properly(seg):
+            continue
+        if min(
+            abs(a - z[ia]), abs(a - z[(ia + 1) % n]), abs(b - z[ib]), abs(b - z[(ib + 1) % n])
+        ) < (1e-6 * abs(b - a)):
+            continue  # a cut through a vertex: left to other places
+        first = np.array([a, *_walk(z, ia, ib), b])
+        second = np.array([b, *_walk(z, ib, ia), a])
+        out.append(BridgeCut(a, b, ia, ib, first, second))
+    return out
+
+
+def _walk(z: np.ndarray, i0: int, i1: int) -> list[complex]:
+    """The vertices after edge ``i0`` up to the start of edge ``i1``, counter-clockwise."""
+    n = z.size
+    out = []
+    k = (i0 + 1) % n
+    for _ in range(n):
+        out.append(complex(z[k]))
+        if k == i1:
+            break
+        k = (k + 1) % n
+    return out
+
+
+def capped(part: np.ndarray) -> np.ndarray:
+    """``part`` (its last edge, from ``part[-1]`` to ``part[0]``, the cut) with a virtual cap
+    cell beyond the cut: a rectangle :data:`BRIDGE_CAP` rung lengths deep, whose far corners are
+    appended. The ladder from the first far corner (index ``len(part)``) then starts with the
+    cap cell and the cut as its first rung."""
+    A, B = part[-1], part[0]
+    c = B - A
+    out = -1j * c / abs(c)  # outside the part: to the right of A -> B
+    d = BRIDGE_CAP * abs(c) * out
+    return np.r_[part, A + d, B + d]
+
+
+def bridge_layout(part: np.ndarray) -> tuple[CorridorLayout, np.ndarray, np.ndarray | None] | None:
+    """A ladder from the cut of ``part`` (a side of a :class:`BridgeCut`) into it, started from
+    a virtual cap (:func:`capped`): the layout (its first rung the cut), the capped polygon, and
+    the body where the ladder gets stuck (None when it reaches the far end: the part is a
+    corridor), or None when no ladder leaves the cut."""
+    q = capped(np.asarray(part, dtype=np.complex128))
+    m = q.size
+    if not shapely.Polygon(np.column_stack([q.real, q.imag])).is_valid:
+        return None
+    tips = arm_tips(q, q[m - 2], count=2)
+    far = next((e for s, e in tips if s in (m - 2, m - 1)), None)
+    if far is None:
+        return None
+    try:
+        lay = ladder_layout(q, (m - 2, far), partial=True)
+    except ThinPartError:
+        return None
+    cut0 = {int(lay.rungs[0][0]), int(lay.rungs[0][1])}
+    if not lay.kind or lay.kind[0] != "cap" or cut0 != {0, m - 3} or len(lay.rungs) < 3:
+        return None
+    if not lay.open_end:
+        return lay, q, None
+    body = _body_after(lay, q)
+    return None if body is None else (lay, q, body)
+
+
+def _body_after(lay: CorridorLayout, q: np.ndarray) -> np.ndarray | None:
+    """The polygon ``q`` beyond the last rung of the open ladder ``lay`` (counter-clockwise,
+    the rung as its last edge), or None if it would hold the virtual cap of a bridge."""
+    m = q.size
+    a, b = (int(x) for x in lay.rungs[-1])
+
+    def edge(c: int) -> tuple[int, bool]:
+        return (c, True) if c < m else (int(lay.edge_of[c]), False)
+
+    ia, _ = edge(a)
+    ib, b_vertex = edge(b)
+    pts = [lay.vertices[a]]
+    k = (ia + 1) % m
+    for _ in range(m + 1):
+        pts.append(q[k])
+        if k == ib:
+            break
+        k = (k + 1) % m
+    if not b_vertex:
+        pts.append(lay.vertices[b])
+    body = np.asarray(pts, dtype=np.complex128)
+    if np.any(np.isin(body, q[m - 2 :])):
+        return None
+    return body
+
+
+def shorter_bridges(
+    lay: CorridorLayout, q: np.ndarray, count: int = 3
+) -> list[tuple[CorridorLayout, np.ndarray]]:
+    """The open ladder ``lay`` of a bridge ending one, two, … (up to ``count``) rungs earlier,
+    each with the body behind its new last rung: other places for the far body's cut, whose
+    mesh puts another number of points on it (a bridge's two ends must agree in parity).
+    Only ladders without sectors are shortened, and never below three rungs."""
+    if lay.sectors or lay.round_caps or not lay.open_end or lay.cell_rungs is None:
+        return []
+    out = []
+    for k in range(len(lay.rungs) - 2, max(len(lay.rungs) - 2 - count, 1), -1):
+        keep = lay.cell_rungs[:, 1] <= k
+        short = dataclasses.replace(
+            lay,
+            cells=lay.cells[keep],
+            kind=tuple(x for x, kp in zip(lay.kind, keep, strict=True) if kp),
+            rungs=lay.rungs[: k + 1],
+            cell_rungs=lay.cell_rungs[keep],
+        )
+        body = _body_after(short, q)
+        if body is not None:
+            out.append((short, body))
+    return out
+
+
 def crowded_place(dec) -> complex | None:
     """Where the decomposition ``dec``'s thick pieces are most crowded for a conformal map:
     the midpoint of the side with the smallest harmonic measure seen from its piece's centre
@@ -1699,21 +1893,41 @@ def crowded_place(dec) -> complex | None:
     return None if best is None else best[2]
 
 
+def _rung_params(lay: CorridorLayout, k: int, points: np.ndarray) -> np.ndarray:
+    """Parameters along rung ``k`` (from its L end to its R end) of the ``points`` lying on it,
+    its two ends included (:func:`_param_list`)."""
+    a, b = (int(x) for x in lay.rungs[k])
+    za, zb = lay.vertices[a], lay.vertices[b]
+    t = (np.asarray(points) - za) / (zb - za)
+    on = (np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)
+    return _param_list(np.sort(t.real[on]))
+
+
 def mesh_arm(
-    lay: CorridorLayout, z: np.ndarray, body_points: np.ndarray, *, across: int = 4
+    lay: CorridorLayout,
+    z: np.ndarray,
+    body_points: np.ndarray | None,
+    *,
+    across: int = 4,
+    start_points: np.ndarray | None = None,
 ) -> CorridorMesh:
     """Mesh an arm (:func:`arm_and_body`) whose last rung carries the body mesh's points on
     the cut (``body_points``: every body mesh vertex; those on the cut are found by position),
     so the two meshes share that rung's points. Unused polygon vertices are dropped: the mesh
-    holds the arm only."""
-    a, b = (int(x) for x in lay.rungs[-1])
-    za, zb = lay.vertices[a], lay.vertices[b]
-    t = (np.asarray(body_points) - za) / (zb - za)
-    on = (np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)
-    par = _param_list(np.sort(t.real[on]))
-    # the arm's own counts, changed to the body's by a transition cascade next to the cut; the
-    # arm carrying the body's points along its whole length where that does not work
-    cut = {len(lay.rungs) - 1: par}
+    holds the arm only.
+
+    A bridge (:func:`bridge_cuts`) starts at a virtual cap cell beyond its first rung: given
+    ``start_points`` (the mesh of the part before it), that rung carries their points on it and
+    the cap cell's quads are dropped. ``body_points`` None: the ladder reaches the far tip (no
+    body after it)."""
+    fixed = {}
+    if body_points is not None:
+        fixed[len(lay.rungs) - 1] = _rung_params(lay, len(lay.rungs) - 1, body_points)
+    if start_points is not None:
+        if 0 in fixed or not lay.kind or lay.kind[0] != "cap":
+            raise ThinPartError("a bridge needs a cap cell before its first rung")
+        fixed[0] = _rung_params(lay, 0, start_points)
+    cut = fixed
     try:
         cm_t = _mesh_layout(lay, z, across, cut, transitions=True)
     except ThinPartError:
@@ -1726,10 +1940,20 @@ def mesh_arm(
         cm = cm_t
     if cm_t is not None and len(cm_t.quads) < len(cm.quads):
         cm = cm_t
-    used = np.unique(cm.quads)
+    keep = np.ones(len(cm.quads), dtype=bool)
+    if start_points is not None:
+        keep = cm.cell != 0  # the virtual cap
+    used = np.unique(cm.quads[keep])
     remap = np.full(cm.vertices.size, -1, dtype=np.int64)
     remap[used] = np.arange(used.size)
-    return CorridorMesh(cm.vertices[used], remap[cm.quads], cm.cell, lay, remap[cm.cut])
+    return CorridorMesh(
+        cm.vertices[used],
+        remap[cm.quads[keep]],
+        cm.cell[keep],
+        lay,
+        None if cm.cut is None else remap[cm.cut],
+        remap[cm.start],
+    )
 
 
 #: A thick piece whose estimated smallest prevertex gap (seen from its centre) is below this is
@@ -1743,13 +1967,15 @@ class CorridorMesh:
     """The mesh of a corridor: ``vertices`` (complex; the first ``n`` are the polygon's),
     counter-clockwise ``quads``, per quad the ``cell`` of the layout it refines, and the
     ``layout`` itself (cells, rungs, tips). For an arm (``layout.open_end``), ``cut`` holds the
-    indices of its points on the rung where it meets the body, from the L wall to the R wall."""
+    indices of its points on the rung where it meets the body, from the L wall to the R wall;
+    ``start`` those on the first rung (where a bridge meets the part it starts from)."""
 
     vertices: np.ndarray
     quads: np.ndarray
     cell: np.ndarray
     layout: CorridorLayout
     cut: np.ndarray | None = None
+    start: np.ndarray | None = None
 
     @property
     def kind(self) -> np.ndarray:
