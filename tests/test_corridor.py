@@ -350,3 +350,30 @@ def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut(
         assert np.all(
             np.diff([shapely.Polygon(np.column_stack([body.real, body.imag])).area, *areas]) > 0
         )
+
+
+def test_arm_tips_start_nearest_the_crowded_place():
+    """A comb of three teeth (wavy walls, so no channel is cut): the crowded place is at a
+    tooth's tip, the arm tips are the ears nearest it, each paired with the far end of the
+    longest path from it."""
+    from quadmesh.decompose import decompose
+    from quadmesh.thin.corridor import arm_tips, crowded_place
+
+    t = np.linspace(0, 1, 40)
+    base = shapely.box(0, 0, 12, 3)
+    teeth = [
+        shapely.LineString(
+            np.column_stack([x + 0.5 * np.sin(3 * np.pi * t), 2.5 + 9.5 * t])
+        ).buffer(0.4, cap_style="flat", join_style="round", quad_segs=4)
+        for x in (2.0, 6.0, 10.0)
+    ]
+    g = shapely.union_all([base, *teeth])
+    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-3), 1.0)
+    z = validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+    place = crowded_place(decompose(np.column_stack([z.real, z.imag])))
+    assert place is not None and place.imag > 8.0  # deep in a tooth
+    tips = arm_tips(z, place, count=3)
+    assert len(tips) == 3
+    d = [abs(z[s] - place) for s, _ in tips]
+    assert d == sorted(d) and all(s != e for s, e in tips)
+    assert abs(z[tips[0][0]] - place) < 1.0

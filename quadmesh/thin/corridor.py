@@ -1868,9 +1868,10 @@ def shorter_bridges(
 
 def crowded_place(dec) -> complex | None:
     """Where the decomposition ``dec``'s thick pieces are most crowded for a conformal map:
-    the midpoint of the side with the smallest harmonic measure seen from its piece's centre
-    (the estimate of its prevertex gap, 2π·ω); among sides the estimate cannot tell apart
-    (no flux reaches them), the one farthest from the centre. None when no estimate exists."""
+    the midpoint of the side with the smallest harmonic measure per unit length seen from its
+    piece's centre (the deepest place; the smallest measure alone picks short sides anywhere
+    along a passage); among sides the estimate cannot tell apart (no flux reaches them), the
+    one farthest from the centre. None when no estimate exists."""
     from scipy.spatial import QhullError
 
     from ..conformal.center import harmonic_measure
@@ -1885,9 +1886,10 @@ def crowded_place(dec) -> complex | None:
         if om.size != w.size or not np.all(np.isfinite(om)):
             continue
         mid = 0.5 * (w + np.roll(w, -1))
-        k = np.flatnonzero(om <= om.min())
+        dens = om / np.maximum(np.abs(np.roll(w, -1) - w), 1e-300)  # per unit length
+        k = np.flatnonzero(dens <= dens.min())
         k = int(k[np.argmax(np.abs(mid[k] - piece.center))])
-        key = (float(om[k]), -float(abs(mid[k] - piece.center)), complex(mid[k]))
+        key = (float(dens[k]), -float(abs(mid[k] - piece.center)), complex(mid[k]))
         if best is None or key[:2] < best[:2]:
             best = key
     return None if best is None else best[2]
