@@ -1652,25 +1652,7 @@ def arm_and_body(
         break
     if lay is None:
         return None
-    n = z.size
-    a, b = (int(x) for x in lay.rungs[-1])
-
-    def edge(c: int) -> tuple[int, bool]:  # (index, is a polygon vertex)
-        return (c, True) if c < n else (int(lay.edge_of[c]), False)
-
-    ia, _ = edge(a)
-    ib, b_vertex = edge(b)
-    pts = [lay.vertices[a]]
-    k = (ia + 1) % n
-    for _ in range(n + 1):
-        pts.append(z[k])
-        if k == ib:
-            break
-        k = (k + 1) % n
-    if not b_vertex:
-        pts.append(lay.vertices[b])
-    body = np.asarray(pts, dtype=np.complex128)
-    return lay, body
+    return lay, _body_after(lay, z)
 
 
 #: Where a bridge's first rung may cross the corridor: fractions of the longest path through
@@ -1811,13 +1793,13 @@ def bridge_layout(part: np.ndarray) -> tuple[CorridorLayout, np.ndarray, np.ndar
         return None
     if not lay.open_end:
         return lay, q, None
-    body = _body_after(lay, q)
+    body = _bridge_body(lay, q)
     return None if body is None else (lay, q, body)
 
 
-def _body_after(lay: CorridorLayout, q: np.ndarray) -> np.ndarray | None:
-    """The polygon ``q`` beyond the last rung of the open ladder ``lay`` (counter-clockwise,
-    the rung as its last edge), or None if it would hold the virtual cap of a bridge."""
+def _body_after(lay: CorridorLayout, q: np.ndarray) -> np.ndarray:
+    """The polygon ``q`` beyond the last rung of the open ladder ``lay``: counter-clockwise,
+    from the rung's L end round to its R end (the rung as its last edge)."""
     m = q.size
     a, b = (int(x) for x in lay.rungs[-1])
 
@@ -1835,10 +1817,14 @@ def _body_after(lay: CorridorLayout, q: np.ndarray) -> np.ndarray | None:
         k = (k + 1) % m
     if not b_vertex:
         pts.append(lay.vertices[b])
-    body = np.asarray(pts, dtype=np.complex128)
-    if np.any(np.isin(body, q[m - 2 :])):
-        return None
-    return body
+    return np.asarray(pts, dtype=np.complex128)
+
+
+def _bridge_body(lay: CorridorLayout, q: np.ndarray) -> np.ndarray | None:
+    """The far body of a bridge (:func:`_body_after`), or None if it would hold the virtual
+    cap (the last two vertices of ``q``)."""
+    body = _body_after(lay, q)
+    return None if np.any(np.isin(body, q[-2:])) else body
 
 
 def shorter_bridges(
@@ -1860,7 +1846,7 @@ def shorter_bridges(
             rungs=lay.rungs[: k + 1],
             cell_rungs=lay.cell_rungs[keep],
         )
-        body = _body_after(short, q)
+        body = _bridge_body(short, q)
         if body is not None:
             out.append((short, body))
     return out
