@@ -449,9 +449,10 @@ BRIDGE_TRIES = 4
 #: ... and at most this many parts (near parts and far bodies) meshed in all: a count, not a
 #: time, so that what meshes does not depend on the machine.
 BRIDGE_MESHES = 8
-#: ... and only for polygons of at most this many vertices (each part of a long river or
+#: ... and only for polygons of at most this many vertices (glyphs have 30–140; a 299-vertex
+#: image contour spent over 120 s in a failing search, and each part of a long river or
 #: coast takes tens of seconds to mesh).
-BRIDGE_MAX_VERTICES = 300
+BRIDGE_MAX_VERTICES = 160
 _nesting = threading.local()
 
 
