@@ -282,3 +282,17 @@ def test_a_bridge_joins_a_bowl_and_a_ball_terminal() -> None:
     assert ids.size > 2 and np.isin(ids, other).all()
     lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_info_names_the_bridge_it_would_try(tmp_path, capsys) -> None:
+    """`quadmesh info` on Computer Modern "9": no corridor as a whole, no arm; it names the cut
+    across the stroke and the corridor from it to the ball terminal."""
+    from quadmesh.cli import main as cli
+
+    f = tmp_path / "nine.txt"
+    np.savetxt(f, glyph_outline("9", "cmr10"))
+    assert cli(["info", str(f)]) == 0
+    out = capsys.readouterr().out
+    assert "corridor: no" in out and "arm:" not in out
+    line = next(x for x in out.splitlines() if x.startswith("bridge:"))
+    assert "crosscuts from it to a far body of" in line
