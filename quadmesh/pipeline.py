@@ -456,6 +456,40 @@ BRIDGE_MAX_VERTICES = 160
 _nesting = threading.local()
 
 
+def _mesh_part(
+    w: np.ndarray, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None
+) -> MeshResult | None:
+    """``mesh_polygon`` of a part cut off the user's polygon (an arm's body, a bridge's sides),
+    or None when it is refused or meshed relative to an origin (its points could not be
+    matched by position). Bridges are not tried inside it."""
+    from .errors import QuadmeshError
+
+    depth = getattr(_nesting, "value", 0)
+    _nesting.value = depth + 1
+    try:
+        r = mesh_polygon(
+            np.column_stack([w.real, w.imag]), options, cancel=cancel, executor=executor
+        )
+    except Cancelled:
+        raise
+    except QuadmeshError:
+        return None
+    finally:
+        _nesting.value = depth
+    return None if (r.mesh_origin or r.origin) else r
+
+
+def _add_mesh(asm: Assembler, r: MeshResult) -> np.ndarray:
+    """Add the mesh of ``r`` to ``asm``, each quad with its source; returns its vertices' ids."""
+    ids = asm.add_vertices(r.mesh.z)
+    src = np.zeros(len(r.mesh.quads), dtype=np.int64)
+    if r.quad_source is not None:
+        src = np.asarray(r.quad_source, dtype=np.int64)
+    for k in np.unique(src):
+        asm.add_quads(ids[r.mesh.quads[src == k]], source=int(k))
+    return ids
+
+
 def _cut_ids(w: np.ndarray, za: complex, zb: complex) -> np.ndarray | None:
     """Indices of the points of ``w`` on the segment from ``za`` to ``zb`` (both ends, which
     must be points of ``w`` exactly), in order from ``za``; None when an end is missing."""
@@ -484,11 +518,9 @@ def _mesh_bridge(
     and for at most :data:`BRIDGE_MAX_VERTICES` vertices. Returns (assembler, the near part's
     thick-piece results, thin-part results, the near part's decomposition) or None; the far
     body's quads are in the mesh, its stage results are not kept."""
-    from .errors import QuadmeshError
     from .thin.corridor import bridge_cuts, bridge_layout, shorter_bridges
 
-    depth = getattr(_nesting, "value", 0)
-    if depth > 0 or dec.polygon.z.size > BRIDGE_MAX_VERTICES:
+    if getattr(_nesting, "value", 0) > 0 or dec.polygon.z.size > BRIDGE_MAX_VERTICES:
         return None
 
     meshes = [BRIDGE_MESHES]
@@ -497,15 +529,7 @@ def _mesh_bridge(
         if meshes[0] <= 0:
             return None
         meshes[0] -= 1
-        try:
-            r = mesh_polygon(
-                np.column_stack([w.real, w.imag]), options, cancel=cancel, executor=executor
-            )
-        except Cancelled:
-            raise
-        except QuadmeshError:
-            return None
-        return None if (r.mesh_origin or r.origin) else r
+        return _mesh_part(w, options, cancel, executor)
 
     splits = []
     for cut in bridge_cuts(dec.polygon.z):
@@ -515,25 +539,21 @@ def _mesh_bridge(
                 splits.append((near, *got))
     # a far side that is one corridor first: its bridge has one fixed end only
     splits.sort(key=lambda t: t[3] is not None)
-    _nesting.value = depth + 1
-    try:
-        for near, lay, q, body in splits[:BRIDGE_TRIES]:
-            near_r = part(near)
-            if near_r is None:
-                continue
-            v = lay.vertices
-            start = _cut_ids(near_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
-            if start is None:
-                continue
-            # the far body's cut: where the ladder stops, else a rung or three before (its mesh
-            # then puts another number of points on the cut; runs keep their parity)
-            ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q)]
-            for lay_k, body_k in ends:
-                got = _bridge_mesh(lay_k, q, near_r, start, body_k, part)
-                if got is not None:
-                    return got
-    finally:
-        _nesting.value = depth
+    for near, lay, q, body in splits[:BRIDGE_TRIES]:
+        near_r = part(near)
+        if near_r is None:
+            continue
+        v = lay.vertices
+        start = _cut_ids(near_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+        if start is None:
+            continue
+        # the far body's cut: where the ladder stops, else a rung or three before (its mesh
+        # then puts another number of points on the cut; runs keep their parity)
+        ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q)]
+        for lay_k, body_k in ends:
+            got = _bridge_mesh(lay_k, q, near_r, start, body_k, part)
+            if got is not None:
+                return got
     return None
 
 
@@ -563,17 +583,7 @@ def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body
     if start.size != arm.start.size or (end is not None and end.size != arm.cut.size):
         return None
     asm = Assembler()
-    gl_parts = []
-    for r in (near_r, body_r):
-        if r is None:
-            continue
-        gz = asm.add_vertices(r.mesh.z)
-        src = np.zeros(len(r.mesh.quads), dtype=np.int64)
-        if r.quad_source is not None:
-            src = np.asarray(r.quad_source, dtype=np.int64)
-        for k in np.unique(src):
-            asm.add_quads(gz[r.mesh.quads[src == k]], source=int(k))
-        gl_parts.append(gz)
+    gl_parts = [_add_mesh(asm, r) for r in (near_r, body_r) if r is not None]
     gl = np.full(arm.vertices.size, -1, dtype=np.int64)
     gl[arm.start] = gl_parts[0][start]
     if end is not None:
@@ -594,7 +604,6 @@ def _mesh_arm_and_body(
     it. Returns (assembler, thick-piece results, thin-part results, the body's decomposition),
     or None when there is no arm or either part cannot be meshed. ``executor``: for the body's
     thick pieces (:func:`mesh_polygon`)."""
-    from .errors import QuadmeshError
     from .thin.corridor import arm_and_body, crowded_place, mesh_arm
 
     # an arm from either end of the polygon's longest stretch, else one reaching toward where
@@ -606,46 +615,21 @@ def _mesh_arm_and_body(
     if split is None:
         return None
     lay, body = split
-    a, b = (int(x) for x in lay.rungs[-1])
-    za, zb = lay.vertices[a], lay.vertices[b]
-
-    def on_cut(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The points of ``w`` strictly inside the cut, and their parameters from za to zb."""
-        t = (w - za) / (zb - za)
-        return np.flatnonzero((np.abs(t.imag) < 1e-9) & (t.real > 1e-12) & (t.real < 1 - 1e-12)), t
-
-    depth = getattr(_nesting, "value", 0)
-    _nesting.value = depth + 1
-    try:
-        body_xy = np.column_stack([body.real, body.imag])
-        inner = mesh_polygon(body_xy, options, cancel=cancel, executor=executor)
-    except Cancelled:
-        raise
-    except QuadmeshError:
+    inner = _mesh_part(body, options, cancel, executor)
+    if inner is None:
         return None
-    finally:
-        _nesting.value = depth
-    if inner.mesh_origin or inner.origin:
-        return None
-    bz = inner.mesh.z
     try:
-        arm = mesh_arm(lay, dec.polygon.z, bz)
+        arm = mesh_arm(lay, dec.polygon.z, inner.mesh.z)
     except ThinPartError:
         return None
-    asm = Assembler()
-    gl_body = asm.add_vertices(bz)
-    src = np.zeros(len(inner.mesh.quads), dtype=np.int64)
-    if inner.quad_source is not None:
-        src = np.asarray(inner.quad_source, dtype=np.int64)
-    for k in np.unique(src):
-        asm.add_quads(gl_body[inner.mesh.quads[src == k]], source=int(k))
     # the cut: the body's points on it, from the arm's L end to its R end
-    on, t = on_cut(bz)
-    ends = [np.flatnonzero(bz == za), np.flatnonzero(bz == zb)]
-    if ends[0].size != 1 or ends[1].size != 1 or on.size != arm.cut.size - 2:
+    a, b = (int(x) for x in lay.rungs[-1])
+    cut = _cut_ids(inner.mesh.z, lay.vertices[a], lay.vertices[b])
+    if cut is None or cut.size != arm.cut.size:
         return None
+    asm = Assembler()
     gl = np.full(arm.vertices.size, -1, dtype=np.int64)
-    gl[arm.cut] = np.r_[ends[0], on[np.argsort(t.real[on])], ends[1]]
+    gl[arm.cut] = _add_mesh(asm, inner)[cut]
     own = gl < 0
     gl[own] = asm.add_vertices(arm.vertices[own])
     asm.add_quads(gl[arm.quads], source=3)
