@@ -34,6 +34,7 @@ started, their results are dropped).
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import multiprocessing as mp
 import sys
@@ -52,6 +53,7 @@ __all__ = [
     "PieceRunner",
     "apply_disk",
     "attach_piece",
+    "blas_threads",
     "disk_task",
     "make_pool",
     "prepare_task",
@@ -97,6 +99,17 @@ def process_context() -> Any:
     return mp.get_context("spawn")
 
 
+def blas_threads(threads: int | None) -> contextlib.AbstractContextManager[Any]:
+    """A context in which the BLAS/LAPACK libraries loaded by numpy and scipy use at most
+    ``threads`` threads (``MeshOptions.blas_threads``); their settings are restored on exit.
+    None: a context that changes nothing."""
+    if threads is None:
+        return contextlib.nullcontext()
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=int(threads), user_api="blas")
+
+
 def make_pool(jobs: int) -> ProcessPoolExecutor:
     """A pool of ``jobs`` worker processes for the pieces (:func:`process_context`)."""
     # what the tasks and their results need, loaded before a fork so no worker imports it again
@@ -129,7 +142,8 @@ def prepare_task(
     per stage."""
     timings: dict[str, float] = {}
     try:
-        pd = prepare_piece(piece, options, timings, dec)
+        with blas_threads(options.blas_threads):
+            pd = prepare_piece(piece, options, timings, dec)
     except ConformalMapError as exc:
         return exc, timings  # the caller names every piece without a map at once
     return replace(pd, name=None, piece=None), timings
@@ -151,7 +165,8 @@ def disk_task(
     changes."""
     pd = replace(pd)
     timings: dict[str, float] = {}
-    disk, image = disk_and_image(pd, n, step, dmax, options, timings)
+    with blas_threads(options.blas_threads):
+        disk, image = disk_and_image(pd, n, step, dmax, options, timings)
     return disk, image, pd.intervals, pd.lemma_A, pd.repair, timings
 
 

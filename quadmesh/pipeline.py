@@ -38,7 +38,14 @@ from .errors import (
     ThinPartError,
 )
 from .glue import Assembler, glue_thick_pieces, glue_thin_parts
-from .parallel import PieceRunner, apply_disk, attach_piece, disk_task, prepare_task
+from .parallel import (
+    PieceRunner,
+    apply_disk,
+    attach_piece,
+    blas_threads,
+    disk_task,
+    prepare_task,
+)
 from .polygon import Polygon, validate_polygon
 from .progress import Run, running
 from .result import MeshOptions, MeshResult, ThinPartResult
@@ -134,7 +141,7 @@ def mesh_polygon(
     runner = PieceRunner(options.jobs, executor)
     failed = True
     try:
-        with running(progress, cancel) as run:
+        with running(progress, cancel) as run, blas_threads(options.blas_threads):
             result = _run_stages(polygon, options, run, runner)
         failed = False
         return result

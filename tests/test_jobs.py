@@ -185,3 +185,33 @@ def test_errors_are_picklable_with_their_fields():
     for exc in (QuadmeshError("x", stage="s", piece=3), DiskConstructionError("y", piece=0)):
         c = pickle.loads(pickle.dumps(exc))
         assert type(c) is type(exc) and str(c) == str(exc) and c.piece == exc.piece
+
+
+def _blas_threads() -> list[int]:
+    from threadpoolctl import threadpool_info
+
+    return [d["num_threads"] for d in threadpool_info() if d["user_api"] == "blas"]
+
+
+def test_blas_runs_single_threaded_during_a_call_and_is_restored_after():
+    """``MeshOptions.blas_threads`` (default 1) holds for the whole call — seen from the
+    progress callback, which runs inside it — and the caller's setting comes back after;
+    None leaves the libraries alone."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _blas_threads()
+        if not before or max(before) < 2:
+            pytest.skip("no multi-threaded BLAS here")
+        seen: list[list[int]] = []
+        mesh_polygon(load_example("l_shape"), progress=lambda *_: seen.append(_blas_threads()))
+        assert seen and all(t == [1] * len(before) for t in seen)
+        assert _blas_threads() == before
+        seen.clear()
+        opts = MeshOptions(blas_threads=None)
+        mesh_polygon(
+            load_example("l_shape"), opts, progress=lambda *_: seen.append(_blas_threads())
+        )
+        assert seen and all(t == before for t in seen)
+    with pytest.raises(ValueError, match="blas_threads"):
+        MeshOptions(blas_threads=0)
