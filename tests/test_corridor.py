@@ -310,6 +310,34 @@ def test_connection_angles_without_the_core_match_the_built_sector():
     assert compared > 150
 
 
+def test_connection_angles_of_many_sectors_at_once_match_the_built_sectors():
+    """The layout search checks all candidate bends of a corridor in batches of equal shape
+    (``_connection_angles_many``): each row agrees with the sector built alone to 1e-9°, and
+    exactly the rows whose crosscut turns back (a polar angle not increasing) are refused."""
+    from quadmesh.errors import ThinPartError
+    from quadmesh.thin.corridor import _connection_angles_many, _crosscut_points, _sector_mesh
+
+    rng = np.random.default_rng(8)
+    for chords, n_pts in ((3, 9), (6, 17), (5, 9)):
+        m = 40
+        th = rng.uniform(60.0, 200.0, m)
+        ang = np.sort(rng.uniform(0.0, 1.0, (m, chords + 1)), axis=1)
+        ang = np.radians(th)[:, None] * (ang - ang[:, :1]) / (ang[:, -1:] - ang[:, :1])
+        ang[:5, 2] = ang[:5, 1] - 0.05  # turns back: refused
+        apex = rng.normal(size=m) + 1j * rng.normal(size=m)
+        g = apex[:, None] + rng.uniform(0.8, 1.2, ang.shape) * np.exp(1j * (ang + 0.3))
+        a, ok = _connection_angles_many(apex, g, n_pts, rows=16)
+        for r in range(m):
+            try:
+                _crosscut_points(apex[r], g[r], n_pts)
+            except ThinPartError:
+                assert not ok[r]
+                continue
+            assert ok[r]
+            assert np.abs(a[r] - _sector_mesh(apex[r], g[r], n_pts)[4]).max() < 1e-9
+        assert ok.sum() >= m - 5
+
+
 def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut():
     """A C-shaped stroke with a round blob at each end: the cuts cross the stroke inside it at
     angles in [60°, 120°] (with the cells' margin) on both walls; the two sides tile the

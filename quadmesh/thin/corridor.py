@@ -496,47 +496,64 @@ def ladder_layout(
     # other wall between their far ends; that region is a vertex sector about the apex
     sector_gamma: dict[tuple[int, int], tuple[int, list[int]]] = {}
     lo_ang = 60.0 + margin
+    # the polygon vertices among the other wall's points, by the apex's wall (L: on_l)
+    O_vertices = {True: np.flatnonzero(R.is_vertex), False: np.flatnonzero(L.is_vertex)}
+    bends: list[tuple[complex, np.ndarray, int, int, int, np.ndarray]] = []
     for C, O, pA, pB, on_l in ((L, R, pa, pb, True), (R, L, pb, pa, False)):
         for ap in np.flatnonzero(C.is_vertex & (C.theta >= 200.0)):
             checkpoint()
             if deadline is not None and time.perf_counter() > deadline:
                 raise ThinPartError("no ladder of straight cells was found in the time allowed")
             rs = np.flatnonzero(pA == ap)
-            if rs.size < 2:
+            if rs.size < 2 or O_vertices[on_l].size == 0:
                 continue
             rs = rs[np.argsort(pB[rs], kind="stable")]
             zc = C.pos[ap]
-            for i in range(rs.size):
-                for j in range(i + 1, rs.size):
-                    o0, o1 = int(pB[rs[i]]), int(pB[rs[j]])
-                    nb = int(O.vrank[o1 - 1] - O.vrank[o0]) if o1 > o0 else 0
-                    if nb < 1 or o1 - o0 > 400:
-                        continue
-                    mids = [t for t in range(o0 + 1, o1) if O.is_vertex[t]]
-                    if nb == 1 and O.theta[mids[0]] <= 120.0:
-                        continue  # a plain fan cell
-                    if on_l:  # cycle (apex, far end of the later rung, ..., earlier)
-                        ids = [int(O.gid[o1]), *[int(O.gid[t]) for t in mids[::-1]], int(O.gid[o0])]
-                        gz = np.r_[O.pos[o1], O.pos[mids[::-1]], O.pos[o0]]
-                    else:
-                        ids = [int(O.gid[o0]), *[int(O.gid[t]) for t in mids], int(O.gid[o1])]
-                        gz = np.r_[O.pos[o0], O.pos[mids], O.pos[o1]]
-                    th = _ccw_angle(np.array([gz[0] - zc]), np.array([gz[-1] - zc]))[0]
-                    one = lo_ang <= th <= 120.0 - margin  # m = 1, or m = 2 subsectors
-                    if not (one or 120.0 + margin <= th <= 240.0 - margin):
-                        continue
-                    if C.theta[ap] - th < 2 * lo_ang:
-                        continue
-                    try:
-                        a_ = _connection_angles(zc, gz, _sector_points(gz.size - 1, sector_chords))
-                    except ThinPartError:
-                        continue
-                    if a_.min() < lo_ang or a_.max() > 120.0 - margin:
-                        continue
-                    r0, r1 = int(rs[i]), int(rs[j])
-                    sector_gamma[(r0, r1)] = (int(C.gid[ap]), ids)
-                    cost = 4.0 + np.abs(a_ - 90).max() / 30
-                    arcs.append((np.array([r0]), np.array([r1]), np.array([cost])))
+            # every pair of rungs from the apex, in (earlier, later) order; the tests that
+            # need only the two far ends run on all pairs at once
+            i_, j_ = np.triu_indices(rs.size, 1)
+            o0, o1 = pB[rs[i_]], pB[rs[j_]]
+            nb = np.where(o1 > o0, O.vrank[np.maximum(o1 - 1, 0)] - O.vrank[o0], 0)
+            ok = (nb >= 1) & (o1 - o0 <= 400)
+            # a single wall vertex between the far ends, not reflex: a plain fan cell
+            first_mid = O_vertices[on_l][np.minimum(O.vrank[o0], O_vertices[on_l].size - 1)]
+            ok &= ~((nb == 1) & (O.theta[first_mid] <= 120.0))
+            # the sector's angle at the apex: m = 1, or m = 2 subsectors
+            th = _ccw_angle(
+                np.where(on_l, O.pos[o1], O.pos[o0]) - zc, np.where(on_l, O.pos[o0], O.pos[o1]) - zc
+            )
+            ok &= ((lo_ang <= th) & (th <= 120.0 - margin)) | (
+                (120.0 + margin <= th) & (th <= 240.0 - margin)
+            )
+            ok &= ~(C.theta[ap] - th < 2 * lo_ang)
+            for p in np.flatnonzero(ok):
+                o0_, o1_ = int(o0[p]), int(o1[p])
+                mids = o0_ + 1 + np.flatnonzero(O.is_vertex[o0_ + 1 : o1_])
+                if on_l:  # cycle (apex, far end of the later rung, ..., earlier)
+                    seq = np.r_[o1_, mids[::-1], o0_]
+                else:
+                    seq = np.r_[o0_, mids, o1_]
+                bends.append(
+                    (zc, O.pos[seq], int(rs[i_[p]]), int(rs[j_[p]]), C.gid[ap], O.gid[seq])
+                )
+    # the connection quads' angles of every candidate, in batches of equal shape
+    angles: list[np.ndarray | None] = [None] * len(bends)
+    shapes: dict[tuple[int, int], list[int]] = {}
+    for b, cand in enumerate(bends):
+        L_ = cand[1].size
+        shapes.setdefault((L_, _sector_points(L_ - 1, sector_chords)), []).append(b)
+    for (_, n_pts), idx in shapes.items():
+        A, good = _connection_angles_many(
+            np.array([bends[b][0] for b in idx]), np.stack([bends[b][1] for b in idx]), n_pts
+        )
+        for b, a_, g_ in zip(idx, A, good):
+            angles[b] = a_ if g_ else None
+    for (_, _, r0, r1, apex_id, gids), a_ in zip(bends, angles):
+        if a_ is None or a_.min() < lo_ang or a_.max() > 120.0 - margin:
+            continue
+        sector_gamma[(r0, r1)] = (int(apex_id), gids.tolist())
+        cost = 4.0 + np.abs(a_ - 90).max() / 30
+        arcs.append((np.array([r0]), np.array([r1]), np.array([cost])))
 
     S = np.concatenate([x[0] for x in arcs])
     D = np.concatenate([x[1] for x in arcs])
@@ -1532,15 +1549,70 @@ def _connection_angles(apex: complex, g: np.ndarray, n_pts: int) -> np.ndarray:
     for every candidate round end and bend, thousands of times on a long ragged corridor."""
     if (n_pts - 1) & (n_pts - 2):  # not 2^k + 1: the core's arc is not even; build it
         return _sector_mesh(apex, g, n_pts)[4]
-    u1, theta, gp, _i, _j = _crosscut_points(apex, g, n_pts)
-    rho = min(abs(g[0] - apex), abs(g[-1] - apex))
-    arc = np.exp(1j * np.radians(theta) * np.arange(n_pts) / (n_pts - 1))
-    lo = apex + rho * u1 * (CAP_CORE * arc)
-    c = np.stack([lo[:-1], gp[:-1], gp[1:], lo[1:]], axis=1)
-    c = c - c[:, :1]
-    e = np.roll(c, -1, axis=1) - c
-    a_ = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
-    return np.where(a_ < 0, a_ + 360.0, a_)
+    g = np.asarray(g, dtype=np.complex128)
+    if g.size > n_pts:
+        raise ThinPartError("a sector of the corridor has more points than it takes")
+    a_, ok = _connection_angles_many(np.array([apex], dtype=np.complex128), g[None, :], n_pts)
+    if not ok[0]:
+        raise ThinPartError("a sector of the corridor has more points than it takes")
+    return a_[0]
+
+
+def _connection_angles_many(
+    apex: np.ndarray, G: np.ndarray, n_pts: int, rows: int = 4096
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_connection_angles` of many sectors at once, number for number: ``apex`` (m,)
+    and their crosscuts ``G`` (m, L), all with the same number of points ``n_pts`` = 2^k + 1.
+    Returns (angles (m, n_pts − 1, 4), ok (m,)); ``ok`` is False where
+    :func:`_crosscut_points` would refuse (polar angles not increasing, too many chords).
+
+    The chords are split as :func:`_crosscut_points` splits them — repeatedly the chord with
+    the largest polar angle per piece — by the equivalent rule that the pieces' sizes
+    span/1, span/2, … taken in decreasing order (ties to the earlier chord) are the first
+    ``n_pts − L`` increments."""
+    m, L = G.shape
+    out = np.zeros((m, n_pts - 1, 4))
+    ok = np.zeros(m, dtype=bool)
+    extra = n_pts - L
+    if (n_pts - 1) & (n_pts - 2) or extra < 0:
+        raise ValueError("n_pts must be 2^k + 1 and at least the number of points")
+    p = np.arange(n_pts - 1)
+    for lo in range(0, m, rows):
+        a = apex[lo : lo + rows, None]
+        g = G[lo : lo + rows]
+        r = g.shape[0]
+        u1 = (g[:, :1] - a) / abs(g[:, :1] - a)
+        ang = np.unwrap(np.angle((g - a) / u1), axis=1)
+        span = np.diff(ang, axis=1)
+        good = np.all(span > 0, axis=1)
+        k = np.ones((r, L - 1), dtype=np.int64)
+        if extra > 0:
+            V = span[:, :, None] / np.arange(1, extra + 1)[None, None, :]
+            t = -np.partition(-V.reshape(r, -1), extra - 1, axis=1)[:, extra - 1]
+            gt = np.sum(V > t[:, None, None], axis=2)
+            eq = np.any(V == t[:, None, None], axis=2)
+            need = extra - gt.sum(axis=1)
+            k += gt + (eq & (np.cumsum(eq, axis=1) <= need[:, None]))
+        ck = np.cumsum(k, axis=1)
+        # (clipped: a refused row's counts need not add up)
+        j = np.minimum(np.sum(ck[:, :, None] <= p[None, None, :], axis=1), L - 2)
+        i = p[None, :] - np.take_along_axis(ck - k, j, axis=1)
+        kj = np.take_along_axis(k, j, axis=1)
+        gj = np.take_along_axis(g, j, axis=1)
+        gp = np.empty((r, n_pts), dtype=np.complex128)
+        gp[:, :-1] = gj + (np.take_along_axis(g, j + 1, axis=1) - gj) * i / kj
+        gp[:, -1] = g[:, -1]
+        theta = np.array([round(float(x), 9) for x in np.degrees(ang[:, -1])])
+        rho = np.minimum(abs(g[:, 0] - a[:, 0]), abs(g[:, -1] - a[:, 0]))
+        arc = np.exp(1j * np.radians(theta)[:, None] * np.arange(n_pts)[None, :] / (n_pts - 1))
+        low = a + (rho[:, None] * u1) * (CAP_CORE * arc)
+        c = np.stack([low[:, :-1], gp[:, :-1], gp[:, 1:], low[:, 1:]], axis=2)
+        c = c - c[:, :, :1]
+        e = np.roll(c, -1, axis=2) - c
+        a_ = np.degrees(np.angle(-np.roll(e, 1, axis=2) * np.conj(e)))
+        out[lo : lo + rows] = np.where(a_ < 0, a_ + 360.0, a_)
+        ok[lo : lo + rows] = good
+    return out, ok
 
 
 def _sector_mesh(
