@@ -498,7 +498,7 @@ def ladder_layout(
     lo_ang = 60.0 + margin
     # the polygon vertices among the other wall's points, by the apex's wall (L: on_l)
     O_vertices = {True: np.flatnonzero(R.is_vertex), False: np.flatnonzero(L.is_vertex)}
-    bends: list[tuple[complex, np.ndarray, int, int, int, np.ndarray]] = []
+    bends: list[tuple] = []  # per apex: its candidate pairs of rungs (arrays)
     for C, O, pA, pB, on_l in ((L, R, pa, pb, True), (R, L, pb, pa, False)):
         for ap in np.flatnonzero(C.is_vertex & (C.theta >= 200.0)):
             checkpoint()
@@ -526,34 +526,40 @@ def ladder_layout(
                 (120.0 + margin <= th) & (th <= 240.0 - margin)
             )
             ok &= ~(C.theta[ap] - th < 2 * lo_ang)
-            for p in np.flatnonzero(ok):
-                o0_, o1_ = int(o0[p]), int(o1[p])
-                mids = o0_ + 1 + np.flatnonzero(O.is_vertex[o0_ + 1 : o1_])
-                if on_l:  # cycle (apex, far end of the later rung, ..., earlier)
-                    seq = np.r_[o1_, mids[::-1], o0_]
+            sel = np.flatnonzero(ok)
+            r0_, r1_ = rs[i_[sel]], rs[j_[sel]]
+            bends.append((on_l, zc, o0[sel], o1[sel], nb[sel], r0_, r1_, int(C.gid[ap])))
+    if bends:
+        # each candidate's crosscut: a far end, the other wall's vertices between, the other
+        # far end (from the later rung's on the left wall); its connection quads' angles, in
+        # batches of the same number of points
+        on = np.concatenate([np.full(x[2].size, x[0]) for x in bends])
+        zc = np.concatenate([np.full(x[2].size, x[1]) for x in bends])
+        o0, o1, nb, r0_, r1_ = (np.concatenate([x[k] for x in bends]) for k in range(2, 7))
+        apex_id = np.concatenate([np.full(x[2].size, x[7]) for x in bends])
+        keep = np.zeros(on.size, dtype=bool)
+        cost = np.zeros(on.size)
+        gids: list[np.ndarray | None] = [None] * on.size
+        for on_l, O in ((True, R), (False, L)):
+            for nbv in np.unique(nb[on == on_l]):
+                idx = np.flatnonzero((on == on_l) & (nb == nbv))
+                mids = O_vertices[on_l][O.vrank[o0[idx]][:, None] + np.arange(nbv)[None, :]]
+                if on_l:
+                    seq = np.column_stack([o1[idx], mids[:, ::-1], o0[idx]])
                 else:
-                    seq = np.r_[o0_, mids, o1_]
-                bends.append(
-                    (zc, O.pos[seq], int(rs[i_[p]]), int(rs[j_[p]]), C.gid[ap], O.gid[seq])
+                    seq = np.column_stack([o0[idx], mids, o1[idx]])
+                n_pts = _sector_points(int(nbv) + 1, sector_chords)
+                A, good = _connection_angles_many(zc[idx], O.pos[seq], n_pts)
+                keep[idx] = (
+                    good & (A.min(axis=(1, 2)) >= lo_ang) & (A.max(axis=(1, 2)) <= 120.0 - margin)
                 )
-    # the connection quads' angles of every candidate, in batches of equal shape
-    angles: list[np.ndarray | None] = [None] * len(bends)
-    shapes: dict[tuple[int, int], list[int]] = {}
-    for b, cand in enumerate(bends):
-        L_ = cand[1].size
-        shapes.setdefault((L_, _sector_points(L_ - 1, sector_chords)), []).append(b)
-    for (_, n_pts), idx in shapes.items():
-        A, good = _connection_angles_many(
-            np.array([bends[b][0] for b in idx]), np.stack([bends[b][1] for b in idx]), n_pts
-        )
-        for b, a_, g_ in zip(idx, A, good):
-            angles[b] = a_ if g_ else None
-    for (_, _, r0, r1, apex_id, gids), a_ in zip(bends, angles):
-        if a_ is None or a_.min() < lo_ang or a_.max() > 120.0 - margin:
-            continue
-        sector_gamma[(r0, r1)] = (int(apex_id), gids.tolist())
-        cost = 4.0 + np.abs(a_ - 90).max() / 30
-        arcs.append((np.array([r0]), np.array([r1]), np.array([cost])))
+                cost[idx] = 4.0 + np.abs(A - 90).max(axis=(1, 2)) / 30
+                kept = keep[idx]
+                for t, row in zip(idx[kept], O.gid[seq[kept]]):
+                    gids[t] = row
+        for t in np.flatnonzero(keep):
+            sector_gamma[(int(r0_[t]), int(r1_[t]))] = (int(apex_id[t]), gids[t].tolist())
+        arcs.append((r0_[keep], r1_[keep], cost[keep]))
 
     S = np.concatenate([x[0] for x in arcs])
     D = np.concatenate([x[1] for x in arcs])
