@@ -330,7 +330,10 @@ def ladder_layout(
     okL = (~L.is_vertex) | (L.theta > 120.0 + margin)
     okR = (~R.is_vertex) | (R.theta > 120.0 + margin)
     ia = np.flatnonzero(okL)
-    reach = 3.0 * L.width[ia] + 1e-300
+    # (the facing distance along the normal can hit the corridor's own end near a tip: the
+    # distance to the other wall bounds the reach from below)
+    across = tr.query(np.column_stack([L.pos[ia].real, L.pos[ia].imag]))[0]
+    reach = 3.0 * np.maximum(L.width[ia], across) + 1e-300
     rxy = np.column_stack([R.pos.real, R.pos.imag])
     rtree = cKDTree(rxy)
     cand = rtree.query_ball_point(np.column_stack([L.pos[ia].real, L.pos[ia].imag]), reach)
