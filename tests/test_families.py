@@ -296,3 +296,20 @@ def test_info_names_the_bridge_it_would_try(tmp_path, capsys) -> None:
     assert "corridor: no" in out and "arm:" not in out
     line = next(x for x in out.splitlines() if x.startswith("bridge:"))
     assert "crosscuts from it to a far body of" in line
+
+
+def test_ladder_leaves_a_river_end_whose_walls_turn_next_to_the_tip() -> None:
+    """river_0 starts with a straight end edge whose wall turns 22° one short edge after the
+    end corner: the distance along the wall normal there runs into the end edge itself (a
+    third of the river's width). Rungs reach as far as the other wall is, so the ladder
+    leaves the end and runs along the river until a 241°–120°–240° zigzag of the bank."""
+    from quadmesh.families import family_members
+    from quadmesh.thin.corridor import ladder_layout
+
+    m = next(m for m in family_members("rivers") if m.name == "river_0")
+    z = m.vertices[:, 0] + 1j * m.vertices[:, 1]
+    lay = ladder_layout(z, partial=True)
+    assert lay.open_end
+    ends = lay.vertices[np.asarray(lay.rungs).ravel()]
+    # the farthest rung is past the middle of the river (it starts at x = 0.76, ends at 0)
+    assert ends.real.min() < 0.35
