@@ -313,3 +313,24 @@ def test_ladder_leaves_a_river_end_whose_walls_turn_next_to_the_tip() -> None:
     ends = lay.vertices[np.asarray(lay.rungs).ravel()]
     # the farthest rung is past the middle of the river (it starts at x = 0.76, ends at 0)
     assert ends.real.min() < 0.35
+
+
+def test_a_square_cut_river_end_is_started_from_its_corner() -> None:
+    """river_3's ends are square cuts (corners of 95°–111°), but the ear of the dual tree at
+    one end has its apex on the wall next to the end edge (164°): with that tip both end
+    corners lie on one wall and no cap cell exists. The tip moves to the end edge's nearer
+    corner, and the ladder starts there."""
+    from quadmesh.families import family_members
+    from quadmesh.polygon import interior_angles
+    from quadmesh.thin.corridor import corridor_tips, ladder_layout
+
+    m = next(m for m in family_members("rivers") if m.name == "river_3")
+    z = m.vertices[:, 0] + 1j * m.vertices[:, 1]
+    theta = np.degrees(interior_angles(z))
+    s, e = corridor_tips(z)
+    n = z.size
+    for t in (s, e):
+        assert theta[t] < 120.0
+        assert min(theta[(t - 1) % n], theta[(t + 1) % n]) < 120.0
+    lay = ladder_layout(z, partial=True)
+    assert lay.tips == (s, e) and lay.kind[0] == "cap" and len(lay.cells) > 100

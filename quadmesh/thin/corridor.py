@@ -147,7 +147,32 @@ def corridor_tips(z: np.ndarray) -> tuple[int, int]:
     t1 = int(np.argmax(d0))
     d1 = dijkstra(g, indices=t1)
     t2 = int(np.argmax(d1))
-    return int(apex[t1]), int(apex[t2])
+    theta = np.degrees(interior_angles(np.asarray(z, dtype=np.complex128)))
+    return _end_corner(z, theta, int(apex[t1])), _end_corner(z, theta, int(apex[t2]))
+
+
+#: how many polygon vertices either side of an ear's apex :func:`_end_corner` looks at
+END_CORNER_REACH = 3
+
+
+def _end_corner(z: np.ndarray, theta: np.ndarray, t: int) -> int:
+    """The tip of a corridor end near the ear apex ``t``: when the end is cut square — two
+    consecutive corners below 120° (a river's or a pen stroke's straight end) within
+    :data:`END_CORNER_REACH` vertices of ``t`` — the corner of that end edge nearer ``t``
+    (then the start cap is the quadrilateral of the end edge and the first rung, its only
+    other corner the end edge's second corner); else ``t``. The ear's apex can be a wall
+    vertex next to the end edge, and a tip there leaves both end corners, which only cells'
+    corners can take, on one wall: no cap cell exists."""
+    n = z.size
+    if theta[t] < 120.0 and (theta[(t - 1) % n] < 120.0 or theta[(t + 1) % n] < 120.0):
+        return t
+    best = t
+    for k in sorted(range(-END_CORNER_REACH, END_CORNER_REACH + 1), key=abs):
+        u = (t + k) % n
+        if theta[u] < 120.0 and (theta[(u - 1) % n] < 120.0 or theta[(u + 1) % n] < 120.0):
+            best = u
+            break
+    return best
 
 
 def arm_tips(z: np.ndarray, toward: complex, count: int = 4) -> list[tuple[int, int]]:
