@@ -691,10 +691,7 @@ def _sector_from_tree(
         outer_rel = (base[outer] - v)[None, :]
         w_s = math.log(scale * r_j) + 1j * y_s
         lam_dev = math.inf
-        for n_rings in _CONNECTION_RINGS:
-            ring = _rings(v, u1, u2, w_s, w_g, n_rings)
-            # Angles about the apex (exact translation; see _verify).
-            dev = _grid_deviation(np.concatenate([outer_rel, ring - v, g_rel]))
+        for ring, dev in _connection_candidates(v, u1, u2, w_s, w_g, outer_rel, g_rel):
             lam_dev = min(lam_dev, dev)
             if dev < best_dev:
                 best_dev = dev
@@ -740,22 +737,69 @@ _GOOD_DEVIATION = 25.0  # accept the first ring count with connection angles in 
 
 
 def _rings(
-    v: complex, u1: complex, u2: complex, w_s: np.ndarray, w_g: np.ndarray, n_rings: int
+    v: complex, u1: complex, u2: complex, w_s: np.ndarray, w_g: np.ndarray, t: np.ndarray
 ) -> np.ndarray:
-    """(J, P) ring vertices of the connection zone.
+    """Ring vertices of the connection zone at the parameters ``t`` (a column).
 
     ``w_s``/``w_g`` are log-polar coordinates (log radius + i angle from side 1) of the outer
     sector vertices and of the crosscut vertices; chain k is the segment from w_s[k] to w_g[k]
-    in these coordinates, sampled at J equally spaced intermediate rings (a log spiral).
+    in these coordinates; J rings sample it at t = 1/(J+1), ..., J/(J+1) (a log spiral).
     """
-    if n_rings == 0:
-        return np.empty((0, len(w_s)), dtype=np.complex128)
-    t = np.arange(1, n_rings + 1)[:, None] / (n_rings + 1)
     w = (1.0 - t) * w_s[None, :] + t * w_g[None, :]
     ring = v + u1 * np.exp(w)
     ring[:, 0] = v + u1 * np.exp(w[:, 0].real)
     ring[:, -1] = v + u2 * np.exp(w[:, -1].real)
     return ring
+
+
+@functools.lru_cache(maxsize=16)
+def _ring_batch(n_pts: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, ...]]:
+    """All ring counts J > 0 of ``_CONNECTION_RINGS`` at once: the ring parameters t (a
+    column, J by J), the corners (4, Q) of the quads of every J's grid as flat indices into
+    the rows [outer sector vertices, crosscut, rings of every J] (as in
+    :func:`_connection_quads`), the first quad of every grid and the first ring row of every J.
+    """
+    t, corners, first_quad, first_ring = [], [], [], []
+    quad, row = 0, 2
+    for n_rings in _CONNECTION_RINGS[1:]:
+        t.append(np.arange(1, n_rings + 1)[:, None] / (n_rings + 1))
+        rows = np.array([0, *range(row, row + n_rings), 1])
+        k = rows[:, None] * n_pts + np.arange(n_pts)[None, :]
+        corners.append(np.stack([k[:-1, :-1], k[1:, :-1], k[1:, 1:], k[:-1, 1:]]).reshape(4, -1))
+        first_quad.append(quad)
+        first_ring.append(row - 2)
+        quad += (n_rings + 1) * (n_pts - 1)
+        row += n_rings
+    out = (np.concatenate(t), np.concatenate(corners, axis=1), np.array(first_quad))
+    for arr in out:
+        arr.flags.writeable = False
+    return (*out, tuple(first_ring))
+
+
+def _connection_candidates(
+    v: complex,
+    u1: complex,
+    u2: complex,
+    w_s: np.ndarray,
+    w_g: np.ndarray,
+    outer_rel: np.ndarray,
+    g_rel: np.ndarray,
+) -> Iterator[tuple[np.ndarray, float]]:
+    """The (J, P) rings and the largest |angle - 90°| of the connection quads for J =
+    ``_CONNECTION_RINGS`` in turn: straight chains (J = 0) first, then, if asked for more,
+    every J > 0 computed in one pass. Angles are taken about the apex: ``outer_rel`` and
+    ``g_rel`` are the outer sector vertices and the crosscut minus v (rows of one)."""
+    n_pts = g_rel.shape[1]
+    straight = np.concatenate([outer_rel, g_rel])
+    yield (
+        np.empty((0, n_pts), np.complex128),
+        _grid_deviations(straight, _grid_corners(2, n_pts))[0],
+    )
+    t, corners, first_quad, first_ring = _ring_batch(n_pts)
+    ring = _rings(v, u1, u2, w_s, w_g, t)
+    devs = _grid_deviations(np.concatenate([outer_rel, g_rel, ring - v]), corners, first_quad)
+    for n_rings, row, dev in zip(_CONNECTION_RINGS[1:], first_ring, devs):
+        yield ring[row : row + n_rings], dev
 
 
 def _connection_quads(
@@ -785,23 +829,34 @@ _NEXT4 = [1, 2, 3, 0]
 _PREV4 = [3, 0, 1, 2]
 
 
-def _grid_deviation(z: np.ndarray) -> float:
-    """Largest |angle - 90°| over the quads of a (rows, P) vertex grid (degrees).
+def _grid_deviations(
+    z: np.ndarray, corners: np.ndarray, first_quad: np.ndarray | None = None
+) -> list[float]:
+    """Largest |angle - 90°| (degrees) over the quads of vertex grids, one per grid.
 
-    Quad (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) as in :func:`_connection_quads`. Corner
-    angles are taken in [0°, 360°); a result <= 90° means every quad is convex and
-    counter-clockwise (four angles below 180° sum to 360° only for a simple convex
-    counter-clockwise quad), so no separate area test is needed. (A NaN angle, of a degenerate
-    quad, drops the corners of its kind out of the maximum, as Python's ``max`` skips NaN.)
+    ``corners`` (4, Q) are the flat indices into ``z`` of the quads' corners a, b, c, d, quad
+    (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) of a grid as in :func:`_connection_quads`; the
+    grids' quads start at ``first_quad`` (one grid when None). Corner angles are taken in
+    [0°, 360°); a result <= 90° means every quad is convex and counter-clockwise (four angles
+    below 180° sum to 360° only for a simple convex counter-clockwise quad), so no separate
+    area test is needed. (A NaN angle, of a degenerate quad, drops the corners of its kind out
+    of its grid's maximum, as Python's ``max`` skips NaN.)
     """
-    c = z.ravel()[_grid_corners(*z.shape)]  # corners a, b, c, d
+    c = z.ravel()[corners]
     e = c[_NEXT4] - c  # edges ab, bc, cd, da
     # at corner a the angle from ab to -da, at b from bc to -ab, and so on
-    ang = np.mod(np.angle(-e[_PREV4] / e), 2.0 * math.pi)
-    dev = 0.0
-    for corner in np.abs(ang - 0.5 * math.pi).max(axis=1).tolist():
-        dev = max(dev, corner)
-    return math.degrees(dev)
+    dev = np.abs(np.mod(np.angle(-e[_PREV4] / e), 2.0 * math.pi) - 0.5 * math.pi)
+    if first_quad is None:
+        per_grid = dev.max(axis=1)[:, None]
+    else:
+        per_grid = np.maximum.reduceat(dev, first_quad, axis=1)
+    out = []
+    for grid in per_grid.T.tolist():
+        worst = 0.0
+        for corner in grid:
+            worst = max(worst, corner)
+        out.append(math.degrees(worst))
+    return out
 
 
 def _verify(
