@@ -183,7 +183,7 @@ def _nearest(psi: list[float], ang: float, lo_i: int, hi_i: int) -> int:
 
 
 def _build_tree(
-    psi: np.ndarray, m: int, alpha: float, depth_cap: int | None
+    psi: list[float], m: int, alpha: float, depth_cap: int | None
 ) -> tuple[list[_Node], bool]:
     """Refinement tree (roots = the m subsectors) whose leaves match the crosscut angles.
 
@@ -192,9 +192,9 @@ def _build_tree(
     refinement (every Mesh 1 chord is refined at least once) and, with ``depth_cap`` = D, at most
     2**(D - depth) leaves under a node of the given depth, so that no leaf is deeper than D.
     Returns the roots and whether the cap changed any choice (else the tree is the uncapped one).
+    ``psi`` is a list (scalar look-ups in a list are much faster than in an array).
     """
     p1 = len(psi) - 1
-    psi = np.asarray(psi, dtype=float).tolist()  # scalar look-ups: a list is much faster
     cap = _MAX_DEPTH if depth_cap is None else depth_cap
     changed = False
     bounds = [0]
@@ -269,26 +269,27 @@ def _trees(psi: np.ndarray, m: int, alpha: float, lam: float) -> Iterator[list[_
     the minimum refinement allow) misses by more, the bound is its mismatch + 1°. The uncapped
     tree is the fallback (the only candidate when no cap changes anything).
     """
-    full = _build_tree(psi, m, alpha, None)[0]
+    psi_l = np.asarray(psi, dtype=float).tolist()
+    full = _build_tree(psi_l, m, alpha, None)[0]
     # The uncapped tree cannot always follow the crosscut either (every chord needs at least
     # one refinement): a capped tree within 1° of its mismatch is as good for the connection.
-    limit = max(_MISMATCH * math.log(1.0 / lam), _mismatch(full, psi, alpha) + math.radians(1.0))
+    limit = max(_MISMATCH * math.log(1.0 / lam), _mismatch(full, psi_l, alpha) + math.radians(1.0))
     depth = max(2, math.ceil(math.log2((len(psi) - 1) / m)))
     while True:
-        roots, changed = _build_tree(psi, m, alpha, depth)
+        roots, changed = _build_tree(psi_l, m, alpha, depth)
         if not changed:
             break
-        if _mismatch(roots, psi, alpha) <= limit:
+        if _mismatch(roots, psi_l, alpha) <= limit:
             yield roots
             break
         depth += 1
     yield full
 
 
-def _mismatch(roots: list[_Node], psi: np.ndarray, alpha: float) -> float:
+def _mismatch(roots: list[_Node], psi: list[float], alpha: float) -> float:
     """Largest |polar angle of s_k - polar angle of g_k| (radians) of a tree's outer vertices."""
-    y = alpha * (np.array(_leaf_bounds(roots), dtype=float) / _ONE)
-    return float(np.abs(y[:-1] - psi[:-1]).max())
+    bounds = _leaf_bounds(roots)
+    return max(abs(alpha * (n / _ONE) - p) for n, p in zip(bounds[:-1], psi))
 
 
 # Radius ids of a sector template (unit frame, r0 = 1): r0, the Mesh 1 radii s and r0 / 2, then
