@@ -177,8 +177,13 @@ def _nearest(psi: list[float], ang: float, lo_i: int, hi_i: int) -> int:
     """Index in [lo_i, hi_i] whose crosscut angle psi (ascending) is nearest to ``ang``; the
     lower one of two equally near."""
     k = bisect.bisect_left(psi, ang)
-    j0 = min(max(k - 1, lo_i), hi_i)
-    j1 = min(max(k, lo_i), hi_i)
+    # j0 = min(max(k - 1, lo_i), hi_i), j1 = min(max(k, lo_i), hi_i)
+    j0 = k - 1 if k > lo_i else lo_i
+    j1 = k if k > lo_i else lo_i
+    if j0 > hi_i:
+        j0 = hi_i
+    if j1 > hi_i:
+        j1 = hi_i
     return j0 if abs(psi[j0] - ang) <= abs(psi[j1] - ang) else j1
 
 
@@ -223,7 +228,7 @@ def _build_tree(
         ang = alpha * (mid / _ONE)
         ic = _nearest(psi, ang, nd.ia + min_child, nd.ib - min_child)
         if depth_cap is not None:
-            room = max(min_child, n - (1 << (cap - nd.depth - 1)))
+            room = n - (1 << (cap - nd.depth - 1))  # if above min_child
             if room > min_child:
                 capped = _nearest(psi, ang, nd.ia + room, nd.ib - room)
                 changed |= capped != ic
@@ -245,7 +250,8 @@ def _leaves(roots: list[_Node]) -> tuple[list[int], int]:
         nd = stack.pop()
         if nd.kids is None:
             out.append(nd.lo)
-            depth = max(depth, nd.depth)
+            if nd.depth > depth:
+                depth = nd.depth
         else:
             stack.extend((nd.kids[1], nd.kids[0]))
     out.append(roots[-1].hi)
