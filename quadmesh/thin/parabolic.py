@@ -42,6 +42,11 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
    no slack) are still perturbed by rounding of the absolute coordinates, about
    4 ulp(|apex|) / (edge length) radians; when that alone exceeds the 1e-6° tolerance the error
    says the crosscut is too close to the vertex for double precision.
+7. Speed: the vertex numbering, quads and kinds of Mesh 1 and the levels depend only on the
+   tree's shape (and on which radii coincide as floats), so they are made once per shape
+   (:class:`_Template`, cached) and each sector only places the vertices (rho e^{i angle} on the
+   rays, Mesh 2's points Y and X rotated onto their piece) with array operations; the same
+   floats result as from building the sector vertex by vertex.
 """
 
 from __future__ import annotations
