@@ -391,7 +391,7 @@ def _template(
     if tpl is None:
         tpl = _build_template(roots, m, n_levels, canon)
         if len(_TEMPLATES) >= _TEMPLATE_CACHE_SIZE:
-            del _TEMPLATES[next(iter(_TEMPLATES))]
+            _TEMPLATES.clear()  # one step, also with meshes in other threads
         _TEMPLATES[key] = tpl
     return tpl
 
