@@ -34,6 +34,7 @@ relative to the curvature of the grid lines; every angle is checked.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -169,6 +170,21 @@ def _fit_graph(y: np.ndarray, x: np.ndarray, span: float) -> CubicSpline:
     return CubicSpline(yy, xx, bc_type="periodic")
 
 
+def _remember_last(f: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], np.ndarray]:
+    """``f`` that returns its last value again for an equal argument (the fit evaluates the
+    residuals and the Jacobian at the start more than once). The value must not be changed."""
+    last: list[np.ndarray] = []
+
+    def remembered(p: np.ndarray) -> np.ndarray:
+        if last and np.array_equal(last[0], p):
+            return last[1]
+        value = f(p)
+        last[:] = [p.copy(), value]
+        return value
+
+    return remembered
+
+
 def _solve_map(
     spl: CubicSpline, span: float, x0: float, p0: np.ndarray
 ) -> tuple[_Map, float, np.ndarray]:
@@ -182,19 +198,22 @@ def _solve_map(
     dspl = spl.derivative()
 
     def unpack(p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """W, the a_m, coth(k_m W) and q = exp(-2 k_m W)."""
         wid = p[0]
         q = np.exp(-2.0 * k * wid)
         coth = (1.0 + q) / (1.0 - q)
-        dcoth = -4.0 * k * q / (1.0 - q) ** 2  # d coth(kW) / dW
-        return wid, p[1:], coth, dcoth
+        return wid, p[1:], coth, q
 
+    @_remember_last
     def resid(p: np.ndarray) -> np.ndarray:
         wid, a, coth, _ = unpack(p)
         yv = t + sin_t @ (a * coth)
         return x0 + wid + cos_t @ a - spl(yv)
 
+    @_remember_last
     def jac(p: np.ndarray) -> np.ndarray:
-        _wid, a, coth, dcoth = unpack(p)
+        _wid, a, coth, q = unpack(p)
+        dcoth = -4.0 * k * q / (1.0 - q) ** 2  # d coth(kW) / dW
         yv = t + sin_t @ (a * coth)
         xp = dspl(yv)
         jw = 1.0 - xp * (sin_t @ (a * dcoth))
