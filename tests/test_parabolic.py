@@ -288,3 +288,45 @@ def test_slit_355_corner_far_from_the_origin() -> None:
     slack = np.broadcast_to(qm.angle_slack(), tiny.quads.shape)[tiny.new_angle_mask()]
     assert np.all(ang >= 60.0 - slack) and np.all(ang <= 120.0 + slack)
     assert np.all(qm.areas() > 0)
+
+
+def test_sector_template_cache_keeps_the_mesh() -> None:
+    # The tree part is numbered once per tree shape (parabolic._Template, cached); a sector
+    # meshed from a cached template equals one meshed from a fresh template, field by field.
+    from quadmesh.thin import parabolic
+
+    cases = [(math.radians(t), make_gamma(graded_u(), math.radians(t))) for t in (45, 150, 300)]
+
+    def mesh_all():
+        return [mesh_vertex_sector(0.3 + 0.2j, complex(np.exp(0.7j)), t, g) for t, g in cases]
+
+    parabolic._TEMPLATES.clear()
+    fresh = mesh_all()
+    cached = mesh_all()
+    for a, b in zip(fresh, cached):
+        for name in ("vertices", "quads", "kind", "gamma_index", "side1", "side2"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert x.dtype == y.dtype and np.array_equal(x, y), name
+        assert a.apex_index == b.apex_index and a.exempt_apex == b.exempt_apex
+
+
+def test_sector_template_merges_coinciding_radii() -> None:
+    # Vertices are keyed by (ray, radius): radius ids whose radii are the same float are one
+    # radius, so a template with such ids merges their vertices like a key by value would.
+    from quadmesh.thin import parabolic
+
+    assert parabolic._canonical([1.0, 0.5, 2.0]) is None
+    assert parabolic._canonical([1.0, 0.5, 0.5, 2.0, 1.0]) == (0, 1, 1, 3, 0)
+    theta = math.radians(150)
+    g = make_gamma(graded_u(), theta, apex=0j, d1=1.0)
+    psi = np.angle(g)
+    psi[-1] = theta
+    roots, _ = parabolic._build_tree(psi.tolist(), 2, theta / 2, None)
+    _, depth = parabolic._leaves(roots)
+    plain = parabolic._build_template(roots, 2, depth - 1, None)
+    n_ids = 3 + 5 * (depth - 1)
+    same = parabolic._build_template(roots, 2, depth - 1, tuple(range(n_ids)))
+    assert same.n_vertices == plain.n_vertices and np.array_equal(same.quads, plain.quads)
+    # the Mesh 1 radius s taken equal to r0: the Mesh 1 vertices at s on the sides merge
+    merged = parabolic._build_template(roots, 2, depth - 1, (0, 0, *range(2, n_ids)))
+    assert merged.n_vertices < plain.n_vertices

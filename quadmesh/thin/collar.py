@@ -34,11 +34,12 @@ relative to the curvature of the grid lines; every angle is checked.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.optimize import least_squares
+from scipy.optimize import leastsq
 
 from ..errors import ThinPartError
 from ..progress import checkpoint
@@ -169,6 +170,21 @@ def _fit_graph(y: np.ndarray, x: np.ndarray, span: float) -> CubicSpline:
     return CubicSpline(yy, xx, bc_type="periodic")
 
 
+def _remember_last(f: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray], np.ndarray]:
+    """``f`` that returns its last value again for an equal argument (the fit evaluates the
+    residuals and the Jacobian at the start more than once). The value must not be changed."""
+    last: list[np.ndarray] = []
+
+    def remembered(p: np.ndarray) -> np.ndarray:
+        if last and np.array_equal(last[0], p):
+            return last[1]
+        value = f(p)
+        last[:] = [p.copy(), value]
+        return value
+
+    return remembered
+
+
 def _solve_map(
     spl: CubicSpline, span: float, x0: float, p0: np.ndarray
 ) -> tuple[_Map, float, np.ndarray]:
@@ -182,30 +198,46 @@ def _solve_map(
     dspl = spl.derivative()
 
     def unpack(p: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """W, the a_m, coth(k_m W) and q = exp(-2 k_m W)."""
         wid = p[0]
         q = np.exp(-2.0 * k * wid)
         coth = (1.0 + q) / (1.0 - q)
-        dcoth = -4.0 * k * q / (1.0 - q) ** 2  # d coth(kW) / dW
-        return wid, p[1:], coth, dcoth
+        return wid, p[1:], coth, q
 
+    @_remember_last
     def resid(p: np.ndarray) -> np.ndarray:
         wid, a, coth, _ = unpack(p)
         yv = t + sin_t @ (a * coth)
         return x0 + wid + cos_t @ a - spl(yv)
 
+    @_remember_last
     def jac(p: np.ndarray) -> np.ndarray:
-        _wid, a, coth, dcoth = unpack(p)
+        _wid, a, coth, q = unpack(p)
+        dcoth = -4.0 * k * q / (1.0 - q) ** 2  # d coth(kW) / dW
         yv = t + sin_t @ (a * coth)
         xp = dspl(yv)
         jw = 1.0 - xp * (sin_t @ (a * dcoth))
         ja = cos_t - xp[:, None] * (sin_t * coth[None, :])
         return np.column_stack([jw, ja])
 
-    sol = least_squares(resid, p0, jac=jac, method="lm", xtol=1e-15, ftol=1e-15)
-    wid, a, _, _ = unpack(sol.x)
+    # MINPACK's lmder as least_squares(method="lm", ftol=xtol=1e-15) runs it (gtol 1e-8, at
+    # most 100 * len(p0) evaluations, scaling by the Jacobian), without its wrapper's overhead.
+    if not np.all(np.isfinite(resid(p0))):
+        raise ValueError("Residuals are not finite in the initial point.")
+    p, _cov, info, _msg, _status = leastsq(
+        resid,
+        p0,
+        Dfun=jac,
+        full_output=True,
+        ftol=1e-15,
+        xtol=1e-15,
+        gtol=1e-8,
+        maxfev=100 * len(p0),
+    )
+    wid, a, _, _ = unpack(p)
     if not wid > 0.0:
         raise ThinPartError("conformal collar map: no positive modulus found")
-    return _Map(a, k, x0, float(wid)), float(np.abs(sol.fun).max()), sol.x
+    return _Map(a, k, x0, float(wid)), float(np.abs(info["fvec"]).max()), p
 
 
 def _preimages(fmap: _Map, y: np.ndarray, span: float) -> np.ndarray:
@@ -302,9 +334,10 @@ def conformal_collar(
             f"crosscut is too tilted for a collar: |dx/dy| reaches {slope:.2f} in strip "
             f"coordinates (limit {max_slope:g}, i.e. {math.degrees(math.atan(max_slope)):.0f} deg)"
         )
-    x_min = float(min(x.min(), spl(yf).min()))
+    xf = spl(yf)
+    x_min = float(min(x.min(), xf.min()))
     x0 = x_min - gap
-    x_mean = float(np.trapezoid(spl(yf), yf) / span)
+    x_mean = float(np.trapezoid(xf, yf) / span)
     # Modes M = 32, 64, ... (warm-started) until the far edge fits the graph to 1e-5 * span.
     params = np.zeros(33)
     params[0] = x_mean - x0

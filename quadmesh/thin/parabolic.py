@@ -42,13 +42,18 @@ Construction (all in a unit frame with the apex at 0 and side 1 along the positi
    no slack) are still perturbed by rounding of the absolute coordinates, about
    4 ulp(|apex|) / (edge length) radians; when that alone exceeds the 1e-6° tolerance the error
    says the crosscut is too close to the vertex for double precision.
+7. Speed: the vertex numbering, quads and kinds of Mesh 1 and the levels depend only on the
+   tree's shape (and on which radii coincide as floats), so they are made once per shape
+   (:class:`_Template`, cached) and each sector only places the vertices (rho e^{i angle} on the
+   rays, Mesh 2's points Y and X rotated onto their piece) with array operations; the same
+   floats result as from building the sector vertex by vertex.
 """
 
 from __future__ import annotations
 
 import bisect
+import functools
 import math
-import operator
 from collections.abc import Iterator
 
 import numpy as np
@@ -105,6 +110,17 @@ def _ray_hit(p: complex, d: complex, u: complex) -> complex:
     return p + t * d
 
 
+# The six quads of Mesh 2 by point name (counter-clockwise).
+_MESH2_QUADS = (
+    ("A_L", "A_R", "P", "R"),
+    ("R", "P", "P1", "Y"),
+    ("R", "Y", "X", "R2"),
+    ("Y", "P1", "P2", "X"),
+    ("R2", "X", "B_M", "B_L"),
+    ("X", "P2", "B_R", "B_M"),
+)
+
+
 def mesh2_local(phi: float) -> dict[str, object]:
     """Mesh 2 (the paper's figure "Mesh 2", reconstructed here) for inner radius 1.
 
@@ -145,20 +161,12 @@ def mesh2_local(phi: float) -> dict[str, object]:
         "B_R": r2 * u_r,
         "B_M": complex(0.0, r2),
     }
-    quads = (
-        ("A_L", "A_R", "P", "R"),
-        ("R", "P", "P1", "Y"),
-        ("R", "Y", "X", "R2"),
-        ("Y", "P1", "P2", "X"),
-        ("R2", "X", "B_M", "B_L"),
-        ("X", "P2", "B_R", "B_M"),
-    )
     return {
         "points": pts,
         "set3": (r_p, r_p1, rho2),
         "set2": (r_r, rho2),
         "r2": r2,
-        "quads": quads,
+        "quads": _MESH2_QUADS,
     }
 
 
@@ -174,13 +182,18 @@ def _nearest(psi: list[float], ang: float, lo_i: int, hi_i: int) -> int:
     """Index in [lo_i, hi_i] whose crosscut angle psi (ascending) is nearest to ``ang``; the
     lower one of two equally near."""
     k = bisect.bisect_left(psi, ang)
-    j0 = min(max(k - 1, lo_i), hi_i)
-    j1 = min(max(k, lo_i), hi_i)
+    # j0 = min(max(k - 1, lo_i), hi_i), j1 = min(max(k, lo_i), hi_i)
+    j0 = k - 1 if k > lo_i else lo_i
+    j1 = k if k > lo_i else lo_i
+    if j0 > hi_i:
+        j0 = hi_i
+    if j1 > hi_i:
+        j1 = hi_i
     return j0 if abs(psi[j0] - ang) <= abs(psi[j1] - ang) else j1
 
 
 def _build_tree(
-    psi: np.ndarray, m: int, alpha: float, depth_cap: int | None
+    psi: list[float], m: int, alpha: float, depth_cap: int | None
 ) -> tuple[list[_Node], bool]:
     """Refinement tree (roots = the m subsectors) whose leaves match the crosscut angles.
 
@@ -189,9 +202,9 @@ def _build_tree(
     refinement (every Mesh 1 chord is refined at least once) and, with ``depth_cap`` = D, at most
     2**(D - depth) leaves under a node of the given depth, so that no leaf is deeper than D.
     Returns the roots and whether the cap changed any choice (else the tree is the uncapped one).
+    ``psi`` is a list (scalar look-ups in a list are much faster than in an array).
     """
     p1 = len(psi) - 1
-    psi = np.asarray(psi, dtype=float).tolist()  # scalar look-ups: a list is much faster
     cap = _MAX_DEPTH if depth_cap is None else depth_cap
     changed = False
     bounds = [0]
@@ -220,7 +233,7 @@ def _build_tree(
         ang = alpha * (mid / _ONE)
         ic = _nearest(psi, ang, nd.ia + min_child, nd.ib - min_child)
         if depth_cap is not None:
-            room = max(min_child, n - (1 << (cap - nd.depth - 1)))
+            room = n - (1 << (cap - nd.depth - 1))  # if above min_child
             if room > min_child:
                 capped = _nearest(psi, ang, nd.ia + room, nd.ib - room)
                 changed |= capped != ic
@@ -232,18 +245,27 @@ def _build_tree(
     return roots, changed
 
 
-def _leaf_bounds(roots: list[_Node]) -> list[int]:
-    """Dyadic angles (units alpha / 2**_K) of the leaf boundaries, from side 1 to side 2."""
+def _leaves(roots: list[_Node]) -> tuple[list[int], int]:
+    """Dyadic angles (units alpha / 2**_K) of the leaf boundaries, from side 1 to side 2, and
+    the depth of the deepest leaf."""
     out: list[int] = []
+    depth = 0
     stack = list(reversed(roots))
     while stack:
         nd = stack.pop()
         if nd.kids is None:
             out.append(nd.lo)
+            if nd.depth > depth:
+                depth = nd.depth
         else:
             stack.extend((nd.kids[1], nd.kids[0]))
     out.append(roots[-1].hi)
-    return out
+    return out, depth
+
+
+def _leaf_bounds(roots: list[_Node]) -> list[int]:
+    """Dyadic angles (units alpha / 2**_K) of the leaf boundaries, from side 1 to side 2."""
+    return _leaves(roots)[0]
 
 
 def _trees(psi: np.ndarray, m: int, alpha: float, lam: float) -> Iterator[list[_Node]]:
@@ -258,70 +280,263 @@ def _trees(psi: np.ndarray, m: int, alpha: float, lam: float) -> Iterator[list[_
     the minimum refinement allow) misses by more, the bound is its mismatch + 1°. The uncapped
     tree is the fallback (the only candidate when no cap changes anything).
     """
-    full = _build_tree(psi, m, alpha, None)[0]
+    psi_l = np.asarray(psi, dtype=float).tolist()
+    full = _build_tree(psi_l, m, alpha, None)[0]
     # The uncapped tree cannot always follow the crosscut either (every chord needs at least
     # one refinement): a capped tree within 1° of its mismatch is as good for the connection.
-    limit = max(_MISMATCH * math.log(1.0 / lam), _mismatch(full, psi, alpha) + math.radians(1.0))
+    limit = max(_MISMATCH * math.log(1.0 / lam), _mismatch(full, psi_l, alpha) + math.radians(1.0))
     depth = max(2, math.ceil(math.log2((len(psi) - 1) / m)))
     while True:
-        roots, changed = _build_tree(psi, m, alpha, depth)
+        roots, changed = _build_tree(psi_l, m, alpha, depth)
         if not changed:
             break
-        if _mismatch(roots, psi, alpha) <= limit:
+        if _mismatch(roots, psi_l, alpha) <= limit:
             yield roots
             break
         depth += 1
     yield full
 
 
-def _mismatch(roots: list[_Node], psi: np.ndarray, alpha: float) -> float:
+def _mismatch(roots: list[_Node], psi: list[float], alpha: float) -> float:
     """Largest |polar angle of s_k - polar angle of g_k| (radians) of a tree's outer vertices."""
-    y = alpha * (np.array(_leaf_bounds(roots), dtype=float) / _ONE)
-    return float(np.abs(y[:-1] - psi[:-1]).max())
+    bounds = _leaf_bounds(roots)
+    return max(abs(alpha * (n / _ONE) - p) for n, p in zip(bounds[:-1], psi))
 
 
-class _Builder:
-    """Vertex registry (exact sharing by key) and quad list in the unit frame."""
+# Radius ids of a sector template (unit frame, r0 = 1): r0, the Mesh 1 radii s and r0 / 2, then
+# five per level j >= 1 (see _level_radius_ids). Vertices are keyed by (ray, radius); two ids
+# whose radii are the same float are one radius (see _canonical), as for keys by value.
+_R0, _RS, _RH = 0, 1, 2
 
-    def __init__(self, alpha: float, n_top: int, theta: float) -> None:
-        self.alpha, self.n_top, self.theta = alpha, n_top, theta
-        self.keys: dict[tuple, int] = {}
-        self.rays: dict[tuple[int, float], int] = {}  # (n, rho) -> index
-        self.z: list[complex] = []
-        self.quads: list[tuple[int, int, int, int]] = []
-        self.kind: list[int] = []
-        self.dirs: dict[int, complex] = {}
-        # (radius, index) of the vertices on side 1 (n = 0) and side 2 (n = n_top)
-        self.sides: dict[int, list[tuple[float, int]]] = {0: [], n_top: []}
 
-    def ray_dir(self, n: int) -> complex:
-        u = self.dirs.get(n)
-        if u is None:
-            a = self.theta if n == self.n_top else self.alpha * (n / _ONE)
-            u = self.dirs[n] = complex(math.cos(a), math.sin(a))
-        return u
+def _level_radius_ids(j: int) -> tuple[int, tuple[int, int, int], tuple[int, int], int]:
+    """Radius ids of level j >= 1: r_j, the 3-set (P, P1, rho2), the 2-set (R, rho2), r_{j+1}."""
+    base = 3 + 5 * (j - 1)
+    inner = _R0 if j == 1 else base - 1
+    return inner, (base, base + 1, base + 2), (base + 3, base + 2), base + 4
 
-    def ray(self, n: int, rho: float) -> int:
-        key = (n, rho)
-        idx = self.rays.get(key)
+
+def _radii(
+    alpha: float, n_levels: int
+) -> tuple[list[float], list[float], list[dict[str, complex]]]:
+    """Radii of a sector by radius id, each level's inner radius r_j (j = 1..n_levels, then the
+    outer radius) and each level's Mesh 2 points (inner radius 1); raises ThinPartError when a
+    level's Mesh 2 degenerates."""
+    r0 = 1.0
+    th1 = 120.0 - math.degrees(alpha) / 2.0
+    s_rad = 0.5 * r0 * math.sin(math.radians(60.0)) / math.sin(math.radians(th1))
+    vals = [r0, s_rad, 0.5 * r0]
+    inner = [r0]
+    pts: list[dict[str, complex]] = []
+    r_j = r0
+    for j in range(1, n_levels + 1):
+        loc = mesh2_local(alpha / (1 << j))
+        s3, s2 = loc["set3"], loc["set2"]
+        r_next = r_j * loc["r2"]  # type: ignore[operator]
+        vals += [r_j * s3[0], r_j * s3[1], r_j * s3[2], r_j * s2[0], r_next]  # type: ignore[index]
+        pts.append(loc["points"])  # type: ignore[arg-type]
+        r_j = r_next
+        inner.append(r_j)
+    return vals, inner, pts
+
+
+def _canonical(vals: list[float]) -> tuple[int, ...] | None:
+    """For every radius id the first id with the same float radius; None when all differ."""
+    first: dict[float, int] = {}
+    canon = tuple(first.setdefault(x, i) for i, x in enumerate(vals))
+    return None if len(first) == len(vals) else canon
+
+
+class _Template:
+    """Vertex numbering, quads and kinds of Mesh 1 and the levels of Mesh 2 / plain strips.
+
+    They depend only on the refinement tree's shape (its leaf bounds and m) and on which radius
+    ids coincide as floats, so one template serves every sector with that shape. Vertex 0 is the
+    apex; ray vertex ``ray_vertex[i]`` lies at radius id ``ray_r[i]`` on the ray of dyadic angle
+    ``ns[ray_n[i]]``; ``points`` are the Mesh 2 points Y and X as (vertex, level, ray id of the
+    piece's bisector, name, reflected). ``side1``/``side2`` hold (radius id, vertex) of the
+    vertices on the sides in the order made, ``outer`` the P outer vertices (the leaf bounds at
+    the last radius), ``leaf_frac`` the leaf bounds in units of alpha. ``conformity`` caches
+    the check of :func:`_verify` (unpaired edges, duplicate edge) per connection ring count.
+    """
+
+    __slots__ = (
+        "conformity",
+        "kind",
+        "leaf_frac",
+        "n_leaves",
+        "n_vertices",
+        "ns",
+        "outer",
+        "points",
+        "quads",
+        "ray_n",
+        "ray_r",
+        "ray_vertex",
+        "side1",
+        "side2",
+    )
+
+
+_TEMPLATES: dict[tuple, _Template] = {}
+_TEMPLATE_CACHE_SIZE = 512
+
+
+def _template(
+    roots: list[_Node], bounds: list[int], m: int, n_levels: int, canon: tuple[int, ...] | None
+) -> _Template:
+    """The template of a tree with leaf bounds ``bounds`` (cached by them, m and ``canon``)."""
+    key = (m, tuple(bounds), canon)
+    tpl = _TEMPLATES.get(key)
+    if tpl is None:
+        tpl = _build_template(roots, m, n_levels, canon)
+        if len(_TEMPLATES) >= _TEMPLATE_CACHE_SIZE:
+            _TEMPLATES.clear()  # one step, also with meshes in other threads
+        _TEMPLATES[key] = tpl
+    return tpl
+
+
+def _build_template(
+    roots: list[_Node], m: int, n_levels: int, canon: tuple[int, ...] | None
+) -> _Template:
+    """Mesh 1 in each subsector, then level by level a Mesh 2 piece on every refined chord and
+    a plain strip on every other one (see the module docstring), on radius ids."""
+    n_top = m * _ONE
+    keys: dict[tuple[int, int], int] = {}
+    n_ids: dict[int, int] = {}
+    ray_vertex: list[int] = []
+    ray_n: list[int] = []
+    ray_r: list[int] = []
+    sides: dict[int, list[tuple[int, int]]] = {0: [], n_top: []}
+    points: list[tuple[int, int, int, str, bool]] = []
+    quads: list[tuple[int, ...]] = []
+    kind: list[int] = []
+    count = 1  # vertex 0 is the apex
+
+    def ray(n: int, rid: int) -> int:
+        nonlocal count
+        key = (n, rid if canon is None else canon[rid])
+        idx = keys.get(key)
         if idx is None:
-            idx = len(self.z)
-            self.rays[key] = idx
-            self.z.append(rho * self.ray_dir(n))
-            side = self.sides.get(n)
+            idx = keys[key] = count
+            count += 1
+            ray_vertex.append(idx)
+            ray_n.append(n_ids.setdefault(n, len(n_ids)))
+            ray_r.append(rid)
+            side = sides.get(n)
             if side is not None:
-                side.append((rho, idx))
+                side.append((rid, idx))
         return idx
 
-    def point(self, key: tuple, z: complex) -> int:
-        idx = len(self.z)
-        self.keys[key] = idx
-        self.z.append(z)
-        return idx
+    # Mesh 1 (paper figure "Mesh 1") in each subsector.
+    for root in roots:
+        lo, hi = root.lo, root.hi
+        mid_n = (lo + hi) // 2
+        a_p, b_p = ray(lo, _RS), ray(hi, _RS)
+        c_p = ray(mid_n, _RH)
+        a_o, m_o, b_o = ray(lo, _R0), ray(mid_n, _R0), ray(hi, _R0)
+        quads += [(0, a_p, c_p, b_p), (a_p, a_o, m_o, c_p), (c_p, m_o, b_o, b_p)]
+        kind += [KIND_MESH1] * 3
 
-    def quad(self, q: tuple[int, int, int, int], kind: int) -> None:
-        self.quads.append(q)
-        self.kind.append(kind)
+    # Levels of Mesh 2 / plain strips.
+    frontier: list[_Node] = []
+    for root in roots:
+        assert root.kids is not None
+        frontier.extend(root.kids)
+    j = 1
+    while any(nd.kids is not None for nd in frontier):
+        r_in, set3, set2, r_out = _level_radius_ids(j)
+        set_r = {3: set3, 2: set2}
+        # The set carried before the first Mesh 2 piece is free (the whole orientation pattern
+        # may be mirrored); pick the one that gives the plain strips fewer cells.
+        plain = [0, 0]  # plain strips after an even / odd number of Mesh 2 pieces
+        n_refined = 0
+        for nd in frontier:
+            if nd.kids is None:
+                plain[n_refined % 2] += 1
+            else:
+                n_refined += 1
+        cur = 2 if plain[0] >= plain[1] else 3
+        nxt: list[_Node] = []
+        for nd in frontier:
+            if nd.kids is None:
+                # a plain strip: quads (lo r_k, lo r_k+1, hi r_k+1, hi r_k), its vertices made
+                # in that order (a quad's first and last are the previous quad's second and
+                # third)
+                radii = (r_in, *set_r[cur], r_out)
+                lo_n, hi_n = nd.lo, nd.hi
+                a0 = ray(lo_n, radii[0])
+                b0 = -1
+                for k in range(1, len(radii)):
+                    a1 = ray(lo_n, radii[k])
+                    b1 = ray(hi_n, radii[k])
+                    if b0 < 0:
+                        b0 = ray(hi_n, radii[0])
+                    quads.append((a0, a1, b1, b0))
+                    a0, b0 = a1, b1
+                kind.extend([KIND_STRIP] * (len(radii) - 1))
+                nxt.append(nd)
+                continue
+            if nd.depth != j:
+                raise ThinPartError("internal: refinement tree level mismatch")
+            reflected = cur == 2
+            ray_r_n, ray_l_n = (nd.hi, nd.lo) if reflected else (nd.lo, nd.hi)
+            mid_n = (nd.lo + nd.hi) // 2
+            ids = {
+                "A_L": ray(ray_l_n, r_in),
+                "A_R": ray(ray_r_n, r_in),
+                "R": ray(ray_l_n, set2[0]),
+                "R2": ray(ray_l_n, set2[1]),
+                "P": ray(ray_r_n, set3[0]),
+                "P1": ray(ray_r_n, set3[1]),
+                "P2": ray(ray_r_n, set3[2]),
+                "B_L": ray(ray_l_n, r_out),
+                "B_R": ray(ray_r_n, r_out),
+                "B_M": ray(mid_n, r_out),
+            }
+            for name in ("Y", "X"):
+                ids[name] = count
+                points.append((count, j, n_ids.setdefault(mid_n, len(n_ids)), name, reflected))
+                count += 1
+            for q in _MESH2_QUADS:
+                idx = tuple(ids[p] for p in q)
+                quads.append(idx[::-1] if reflected else idx)
+                kind.append(KIND_MESH2)
+            cur = 5 - cur
+            nxt.extend(nd.kids)
+        frontier = nxt
+        j += 1
+    assert j - 1 == n_levels
+
+    bounds = [nd.lo for nd in frontier] + [frontier[-1].hi]
+    r_last = _R0 if n_levels == 0 else _level_radius_ids(n_levels)[3]
+    outer = [ray(n, r_last) for n in bounds]
+    tpl = _Template()
+    tpl.n_vertices = count
+    tpl.n_leaves = len(bounds) - 1
+    tpl.quads = np.array(quads, dtype=np.int64).reshape(-1, 4)
+    tpl.kind = np.array(kind, dtype=np.uint8)
+    tpl.ray_vertex = np.array(ray_vertex, dtype=np.int64)
+    tpl.ray_n = np.array(ray_n, dtype=np.int64)
+    tpl.ray_r = np.array(ray_r, dtype=np.int64)
+    tpl.ns = tuple(n_ids)
+    tpl.points = tuple(points)
+    tpl.side1 = tuple(sides[0])
+    tpl.side2 = tuple(sides[n_top])
+    tpl.outer = np.array(outer, dtype=np.int64)
+    tpl.leaf_frac = np.array(bounds, dtype=float) / _ONE
+    for arr in (
+        tpl.quads,
+        tpl.kind,
+        tpl.ray_vertex,
+        tpl.ray_n,
+        tpl.ray_r,
+        tpl.outer,
+        tpl.leaf_frac,
+    ):
+        arr.flags.writeable = False
+    tpl.conformity = {}
+    return tpl
 
 
 def _polar_angles(gamma: np.ndarray, v: complex, u1: complex) -> np.ndarray:
@@ -423,116 +638,42 @@ def _sector_from_tree(
     theta_eff: float,
     lam: float,
 ) -> ThinMesh:
-    """Mesh 1, the levels of Mesh 2 / plain strips of the tree, and the connection zone."""
+    """Mesh 1, the levels of Mesh 2 / plain strips of the tree, and the connection zone.
+
+    The tree part comes from the tree's :class:`_Template` (the vertex numbering and quads of
+    its shape); here its vertices are placed: ray vertex rho * e^{i angle} in the unit frame
+    (r0 = 1), Mesh 2 points Y, X rotated onto their piece's bisector.
+    """
     n_pts = len(g)
     n_top = m * _ONE
-    b = _Builder(alpha, n_top, theta_eff)
-
-    # Mesh 1 (paper figure "Mesh 1") in each subsector, r0 = 1.
-    r0 = 1.0
-    alpha_deg = math.degrees(alpha)
-    th1 = 120.0 - alpha_deg / 2.0
-    s_rad = 0.5 * r0 * math.sin(math.radians(60.0)) / math.sin(math.radians(th1))
-    apex_i = b.point(("apex",), 0j)
-    for root in roots:
-        lo, hi = root.lo, root.hi
-        mid_n = (lo + hi) // 2
-        a_p, b_p = b.ray(lo, s_rad), b.ray(hi, s_rad)
-        c_p = b.ray(mid_n, 0.5 * r0)
-        a_o, m_o, b_o = b.ray(lo, r0), b.ray(mid_n, r0), b.ray(hi, r0)
-        b.quad((apex_i, a_p, c_p, b_p), KIND_MESH1)
-        b.quad((a_p, a_o, m_o, c_p), KIND_MESH1)
-        b.quad((c_p, m_o, b_o, b_p), KIND_MESH1)
-
-    # Levels of Mesh 2 / plain strips.
-    frontier: list[_Node] = []
-    for root in roots:
-        assert root.kids is not None
-        frontier.extend(root.kids)
-    r_j = r0
-    j = 1
-    piece = 0
-    while any(nd.kids is not None for nd in frontier):
-        phi = alpha / (1 << j)
-        loc = mesh2_local(phi)
-        set_r = {3: tuple(r_j * x for x in loc["set3"]), 2: tuple(r_j * x for x in loc["set2"])}
-        r_next = r_j * loc["r2"]
-        pts_loc: dict[str, complex] = loc["points"]  # type: ignore[assignment]
-        # the vertex ids of each Mesh 2 quad from the piece's name -> id map
-        corners_of = [operator.itemgetter(*q) for q in loc["quads"]]  # type: ignore[union-attr]
-        # The set carried before the first Mesh 2 piece is free (the whole orientation pattern
-        # may be mirrored); pick the one that gives the plain strips fewer cells.
-        refined = np.array([nd.kids is not None for nd in frontier])
-        parity = (np.cumsum(refined) - refined) % 2
-        plain_even = int(np.sum(~refined & (parity == 0)))
-        plain_odd = int(np.sum(~refined & (parity == 1)))
-        cur = 2 if plain_even >= plain_odd else 3
-        nxt: list[_Node] = []
-        ray = b.ray
-        for nd in frontier:
-            if nd.kids is None:
-                # a plain strip: quads (lo r_k, lo r_k+1, hi r_k+1, hi r_k), its vertices made
-                # in that order (a quad's first and last are the previous quad's second and
-                # third)
-                radii = (r_j, *set_r[cur], r_next)
-                lo_n, hi_n = nd.lo, nd.hi
-                a0 = ray(lo_n, radii[0])
-                b0 = -1
-                for k in range(1, len(radii)):
-                    a1 = ray(lo_n, radii[k])
-                    b1 = ray(hi_n, radii[k])
-                    if b0 < 0:
-                        b0 = ray(hi_n, radii[0])
-                    b.quads.append((a0, a1, b1, b0))
-                    a0, b0 = a1, b1
-                b.kind.extend([KIND_STRIP] * (len(radii) - 1))
-                nxt.append(nd)
-                continue
-            if nd.depth != j:
-                raise ThinPartError("internal: refinement tree level mismatch")
-            reflected = cur == 2
-            ray_r, ray_l = (nd.hi, nd.lo) if reflected else (nd.lo, nd.hi)
-            s3, s2 = set_r[3], set_r[2]
-            mid_n = (nd.lo + nd.hi) // 2
-            rot = b.ray_dir(mid_n) * (-1j)
-            ids = {
-                "A_L": b.ray(ray_l, r_j),
-                "A_R": b.ray(ray_r, r_j),
-                "R": b.ray(ray_l, s2[0]),
-                "R2": b.ray(ray_l, s2[1]),
-                "P": b.ray(ray_r, s3[0]),
-                "P1": b.ray(ray_r, s3[1]),
-                "P2": b.ray(ray_r, s3[2]),
-                "B_L": b.ray(ray_l, r_next),
-                "B_R": b.ray(ray_r, r_next),
-                "B_M": b.ray(mid_n, r_next),
-            }
-            for name in ("Y", "X"):
-                zl = pts_loc[name]
-                if reflected:
-                    zl = -zl.conjugate()
-                ids[name] = b.point(("p", piece, name), r_j * zl * rot)
-            for get in corners_of:
-                idx = get(ids)
-                b.quad(idx[::-1] if reflected else idx, KIND_MESH2)
-            piece += 1
-            cur = 5 - cur
-            nxt.extend(nd.kids)
-        frontier = nxt
-        r_j = r_next
-        j += 1
-
-    # Outer arc: the P leaf boundaries at radius r_j, scaled to the sector radius.
-    bounds = [nd.lo for nd in frontier] + [frontier[-1].hi]
-    if len(bounds) != n_pts:
+    bounds, depth = _leaves(roots)
+    vals, inner, level_pts = _radii(alpha, depth - 1)
+    tpl = _template(roots, bounds, m, depth - 1, _canonical(vals))
+    if tpl.n_leaves != n_pts - 1:
         raise ThinPartError("internal: refinement tree does not have P - 1 leaves")
-    outer = np.array([b.ray(n, r_j) for n in bounds], dtype=np.int64)
-    side1_r = sorted(b.sides[0])
-    side2_r = sorted(b.sides[n_top])
-    zu = np.array(b.z, dtype=np.complex128)
+    dirs = [
+        complex(math.cos(a), math.sin(a))
+        for a in (theta_eff if n == n_top else alpha * (n / _ONE) for n in tpl.ns)
+    ]
+    zu = np.empty(tpl.n_vertices, dtype=np.complex128)
+    zu[0] = 0j  # the apex
+    zu[tpl.ray_vertex] = np.array(vals)[tpl.ray_r] * np.array(dirs)[tpl.ray_n]
+    if tpl.points:
+        pz = []
+        for _, j, mid, name, reflected in tpl.points:
+            zl = level_pts[j - 1][name]
+            if reflected:
+                zl = -zl.conjugate()
+            pz.append(inner[j - 1] * zl * (dirs[mid] * (-1j)))
+        zu[[p[0] for p in tpl.points]] = pz
+    apex_i = 0
+    r_j = inner[-1]
+    outer = tpl.outer
+    side1_r = sorted((vals[rid], i) for rid, i in tpl.side1)
+    side2_r = sorted((vals[rid], i) for rid, i in tpl.side2)
     n_base = len(zu)
     g_idx = np.arange(n_base, n_base + n_pts)
-    y_s = alpha * (np.array(bounds, dtype=float) / _ONE)
+    y_s = alpha * tpl.leaf_frac
     y_s[-1] = theta_eff
     w_g = np.log(rad) + 1j * psi
 
@@ -545,26 +686,28 @@ def _sector_from_tree(
     attempts: list[str] = []
     found = None
     best_dev = math.inf
+    side1_i = [i for _, i in side1_r]
+    side1_rho = np.array([r for r, _ in side1_r])
+    side2_i = [i for _, i in side2_r]
+    side2_rho = np.array([r for r, _ in side2_r])
+    rad_min = float(rad.min())
+    g_rel = (g - v)[None, :]
     for lam_try in lam * _LAM_FACTORS:
         checkpoint()
-        scale = lam_try * float(rad.min()) / r_j
+        scale = lam_try * rad_min / r_j
         base = v + scale * u1 * zu
         # Put the side vertices exactly on the segments v-g_0 and v-g_{P-1}.
-        base[[i for _, i in side1_r]] = v + scale * np.array([r for r, _ in side1_r]) * u1
-        base[[i for _, i in side2_r]] = v + scale * np.array([r for r, _ in side2_r]) * u2
+        base[side1_i] = v + scale * side1_rho * u1
+        base[side2_i] = v + scale * side2_rho * u2
         base[apex_i] = v
-        head = np.concatenate([base, g])
+        outer_rel = (base[outer] - v)[None, :]
         w_s = math.log(scale * r_j) + 1j * y_s
         lam_dev = math.inf
-        for n_rings in _CONNECTION_RINGS:
-            ring_z, cq, grid = _connection(v, u1, u2, w_s, w_g, outer, g_idx, n_rings)
-            verts = np.concatenate([head, ring_z])
-            # Angles about the apex (exact translation; see _verify).
-            dev = _grid_deviation(verts[grid] - v)
+        for ring, dev in _connection_candidates(v, u1, u2, w_s, w_g, outer_rel, g_rel):
             lam_dev = min(lam_dev, dev)
             if dev < best_dev:
                 best_dev = dev
-                found = (verts, cq, grid)
+                found = (base, ring)
             if dev <= _GOOD_DEVIATION:
                 break
         if best_dev <= _GOOD_DEVIATION:
@@ -580,23 +723,23 @@ def _sector_from_tree(
             f"angular gap of the crosscut is {gap:.1f} deg against outer sector chords of at "
             f"most {math.degrees(alpha) / 4:.1f} deg: the crosscut needs more vertices"
         )
-    verts, cq, grid = found
+    base, ring = found
+    verts = np.concatenate([base, g, ring.ravel()])
+    cq, grid = _connection_quads(outer, g_idx, len(ring))
 
-    s1 = np.concatenate([[apex_i], [i for _, i in side1_r], grid[1:, 0]]).astype(np.int64)
-    s2 = np.concatenate([[apex_i], [i for _, i in side2_r], grid[1:, -1]]).astype(np.int64)
+    s1 = np.concatenate([[apex_i], side1_i, grid[1:, 0]]).astype(np.int64)
+    s2 = np.concatenate([[apex_i], side2_i, grid[1:, -1]]).astype(np.int64)
     mesh = ThinMesh(
         vertices=verts,
-        quads=np.concatenate([np.array(b.quads, dtype=np.int64).reshape(-1, 4), cq]),
-        kind=np.concatenate(
-            [np.array(b.kind, dtype=np.uint8), np.full(len(cq), KIND_CONNECTION, np.uint8)]
-        ),
+        quads=np.concatenate([tpl.quads, cq]),
+        kind=np.concatenate([tpl.kind, np.full(len(cq), KIND_CONNECTION, np.uint8)]),
         gamma_index=g_idx,
         apex_index=apex_i,
         side1=s1,
         side2=s2,
         exempt_apex=(m == 1),
     )
-    _verify(mesh, n_pts, v)
+    _verify(mesh, n_pts, v, tpl.conformity, len(ring))
     return mesh
 
 
@@ -605,53 +748,136 @@ _LAM_FACTORS = np.array([1.0, 0.4, 0.16, 0.064])
 _GOOD_DEVIATION = 25.0  # accept the first ring count with connection angles in [65, 115]
 
 
-def _connection(
+def _rings(
+    v: complex, u1: complex, u2: complex, w_s: np.ndarray, w_g: np.ndarray, t: np.ndarray
+) -> np.ndarray:
+    """Ring vertices of the connection zone at the parameters ``t`` (a column).
+
+    ``w_s``/``w_g`` are log-polar coordinates (log radius + i angle from side 1) of the outer
+    sector vertices and of the crosscut vertices; chain k is the segment from w_s[k] to w_g[k]
+    in these coordinates; J rings sample it at t = 1/(J+1), ..., J/(J+1) (a log spiral).
+    """
+    w = (1.0 - t) * w_s[None, :] + t * w_g[None, :]
+    ring = v + u1 * np.exp(w)
+    ring[:, 0] = v + u1 * np.exp(w[:, 0].real)
+    ring[:, -1] = v + u2 * np.exp(w[:, -1].real)
+    return ring
+
+
+@functools.lru_cache(maxsize=16)
+def _ring_batch(n_pts: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, ...]]:
+    """All ring counts J > 0 of ``_CONNECTION_RINGS`` at once: the ring parameters t (a
+    column, J by J), the corners (4, Q) of the quads of every J's grid as flat indices into
+    the rows [outer sector vertices, crosscut, rings of every J] (as in
+    :func:`_connection_quads`), the first quad of every grid and the first ring row of every J.
+    """
+    t, corners, first_quad, first_ring = [], [], [], []
+    quad, row = 0, 2
+    for n_rings in _CONNECTION_RINGS[1:]:
+        t.append(np.arange(1, n_rings + 1)[:, None] / (n_rings + 1))
+        rows = np.array([0, *range(row, row + n_rings), 1])
+        k = rows[:, None] * n_pts + np.arange(n_pts)[None, :]
+        corners.append(np.stack([k[:-1, :-1], k[1:, :-1], k[1:, 1:], k[:-1, 1:]]).reshape(4, -1))
+        first_quad.append(quad)
+        first_ring.append(row - 2)
+        quad += (n_rings + 1) * (n_pts - 1)
+        row += n_rings
+    out = (np.concatenate(t), np.concatenate(corners, axis=1), np.array(first_quad))
+    for arr in out:
+        arr.flags.writeable = False
+    return (*out, tuple(first_ring))
+
+
+def _connection_candidates(
     v: complex,
     u1: complex,
     u2: complex,
     w_s: np.ndarray,
     w_g: np.ndarray,
-    outer: np.ndarray,
-    g_idx: np.ndarray,
-    n_rings: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Ring vertices, quads and the (J+2, P) index grid of the connection zone.
+    outer_rel: np.ndarray,
+    g_rel: np.ndarray,
+) -> Iterator[tuple[np.ndarray, float]]:
+    """The (J, P) rings and the largest |angle - 90°| of the connection quads for J =
+    ``_CONNECTION_RINGS`` in turn: straight chains (J = 0) first, then, if asked for more,
+    every J > 0 computed in one pass. Angles are taken about the apex: ``outer_rel`` and
+    ``g_rel`` are the outer sector vertices and the crosscut minus v (rows of one)."""
+    n_pts = g_rel.shape[1]
+    straight = np.concatenate([outer_rel, g_rel])
+    yield (
+        np.empty((0, n_pts), np.complex128),
+        _grid_deviations(straight, _grid_corners(2, n_pts))[0],
+    )
+    t, corners, first_quad, first_ring = _ring_batch(n_pts)
+    ring = _rings(v, u1, u2, w_s, w_g, t)
+    devs = _grid_deviations(np.concatenate([outer_rel, g_rel, ring - v]), corners, first_quad)
+    for n_rings, row, dev in zip(_CONNECTION_RINGS[1:], first_ring, devs):
+        yield ring[row : row + n_rings], dev
 
-    ``w_s``/``w_g`` are log-polar coordinates (log radius + i angle from side 1) of the outer
-    sector vertices and of the crosscut vertices; chain k is the segment from w_s[k] to w_g[k]
-    in these coordinates, sampled at J equally spaced intermediate rings (a log spiral).
-    """
-    n_pts = len(w_s)
-    t = np.arange(1, n_rings + 1)[:, None] / (n_rings + 1)
-    w = (1.0 - t) * w_s[None, :] + t * w_g[None, :]
-    ring = v + u1 * np.exp(w)
-    ring[:, 0] = v + u1 * np.exp(w[:, 0].real)
-    ring[:, -1] = v + u2 * np.exp(w[:, -1].real)
+
+def _connection_quads(
+    outer: np.ndarray, g_idx: np.ndarray, n_rings: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Quads and the (J+2, P) index grid of the connection zone: rows the outer sector
+    vertices, the J rings (numbered after the crosscut vertices) and the crosscut."""
+    n_pts = len(g_idx)
     first = int(g_idx[-1]) + 1
     ring_idx = first + np.arange(n_rings * n_pts).reshape(n_rings, n_pts)
     grid = np.vstack([outer[None, :], ring_idx, g_idx[None, :]])
     quads = np.stack([grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=-1)
-    return ring.ravel(), quads.reshape(-1, 4), grid
+    return quads.reshape(-1, 4), grid
 
 
-def _grid_deviation(z: np.ndarray) -> float:
-    """Largest |angle - 90°| over the quads of a (rows, P) vertex grid (degrees).
+@functools.lru_cache(maxsize=64)
+def _grid_corners(rows: int, cols: int) -> np.ndarray:
+    """(4, Q) flat indices of the corners a, b, c, d of the quads of a (rows, cols) grid,
+    quad (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) as in :func:`_connection_quads`."""
+    k = np.arange(rows * cols).reshape(rows, cols)
+    idx = np.stack([k[:-1, :-1], k[1:, :-1], k[1:, 1:], k[:-1, 1:]]).reshape(4, -1)
+    idx.flags.writeable = False
+    return idx
 
-    Quad (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) as in :func:`_connection`. Corner angles are
-    taken in [0°, 360°); a result <= 90° means every quad is convex and counter-clockwise (four
-    angles below 180° sum to 360° only for a simple convex counter-clockwise quad), so no
-    separate area test is needed.
+
+_NEXT4 = [1, 2, 3, 0]
+_PREV4 = [3, 0, 1, 2]
+
+
+def _grid_deviations(
+    z: np.ndarray, corners: np.ndarray, first_quad: np.ndarray | None = None
+) -> list[float]:
+    """Largest |angle - 90°| (degrees) over the quads of vertex grids, one per grid.
+
+    ``corners`` (4, Q) are the flat indices into ``z`` of the quads' corners a, b, c, d, quad
+    (z[j,k], z[j+1,k], z[j+1,k+1], z[j,k+1]) of a grid as in :func:`_connection_quads`; the
+    grids' quads start at ``first_quad`` (one grid when None). Corner angles are taken in
+    [0°, 360°); a result <= 90° means every quad is convex and counter-clockwise (four angles
+    below 180° sum to 360° only for a simple convex counter-clockwise quad), so no separate
+    area test is needed. (A NaN angle, of a degenerate quad, drops the corners of its kind out
+    of its grid's maximum, as Python's ``max`` skips NaN.)
     """
-    a, b, c, d = z[:-1, :-1], z[1:, :-1], z[1:, 1:], z[:-1, 1:]
-    ab, bc, cd, da = b - a, c - b, d - c, a - d
-    dev = 0.0
-    for num, den in ((-da, ab), (-ab, bc), (-bc, cd), (-cd, da)):
-        ang = np.mod(np.angle(num / den), 2.0 * math.pi)
-        dev = max(dev, float(np.abs(ang - 0.5 * math.pi).max()))
-    return math.degrees(dev)
+    c = z.ravel()[corners]
+    e = c[_NEXT4] - c  # edges ab, bc, cd, da
+    # at corner a the angle from ab to -da, at b from bc to -ab, and so on
+    dev = np.abs(np.mod(np.angle(-e[_PREV4] / e), 2.0 * math.pi) - 0.5 * math.pi)
+    if first_quad is None:
+        per_grid = dev.max(axis=1)[:, None]
+    else:
+        per_grid = np.maximum.reduceat(dev, first_quad, axis=1)
+    out = []
+    for grid in per_grid.T.tolist():
+        worst = 0.0
+        for corner in grid:
+            worst = max(worst, corner)
+        out.append(math.degrees(worst))
+    return out
 
 
-def _verify(mesh: ThinMesh, n_pts: int, v: complex) -> None:
+def _verify(
+    mesh: ThinMesh,
+    n_pts: int,
+    v: complex,
+    conformity: dict[int, tuple[int, bool]] | None = None,
+    n_rings: int = 0,
+) -> None:
     """Conformity and angle checks before returning.
 
     Areas and angles are computed from the returned coordinates taken relative to the apex
@@ -660,12 +886,17 @@ def _verify(mesh: ThinMesh, n_pts: int, v: complex) -> None:
     shoelace sum. The angle check has the pipeline's tolerance (1e-6°); when it fails only
     because of the rounding of the absolute coordinates, the message says so.
     """
-    free, ok = unpaired_edges(mesh.quads)
+    found = None if conformity is None else conformity.get(n_rings)
+    if found is None:
+        free, ok = unpaired_edges(mesh.quads)
+        found = (len(free), ok)
+        if conformity is not None:
+            conformity[n_rings] = found
+    n_free, ok = found
     expected = (len(mesh.side1) - 1) + (len(mesh.side2) - 1) + (n_pts - 1)
-    if not ok or len(free) != expected:
+    if not ok or n_free != expected:
         raise ThinPartError(
-            f"internal: sector mesh not conforming ({len(free)} boundary edges, "
-            f"{expected} expected)"
+            f"internal: sector mesh not conforming ({n_free} boundary edges, {expected} expected)"
         )
     rel = mesh.vertices - v
     try:
