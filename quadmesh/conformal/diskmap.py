@@ -43,7 +43,15 @@ from .quadrature import (
     make_rules,
     plan_integrals,
 )
-from .series import exp_series, horner, log_coefficients, log_expansions, match_rows, unique_rows
+from .series import (
+    exp_series,
+    horner,
+    horner_t,
+    log_coefficients,
+    log_expansions,
+    match_rows,
+    unique_rows,
+)
 
 __all__ = ["CROWD_RADIUS", "ConformalAccuracy", "DiskMap", "OffsetFunction", "TaylorSeries"]
 
@@ -1213,12 +1221,20 @@ class DiskMap:
         G = [np.empty((int(np.sum(orders == o)), int(o) + 1), dtype=np.complex128) for o in olist]
         for gi in range(olist.size):
             row[grp == gi] = np.arange(G[gi].shape[0])
-        for gi, (t, a) in enumerate(groups):
-            checkpoint(0.6 + 0.2 * gi / len(groups))
-            b = a.copy()
+        # one exp_series per order (the tree returns a group per order and level)
+        by_order: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        for t, a in groups:
+            by_order.setdefault(int(grp[t[0]]), []).append((t, a))
+        for n_done, (gi, parts) in enumerate(by_order.items()):
+            checkpoint(0.6 + 0.2 * n_done / len(by_order))
+            t = np.concatenate([p[0] for p in parts])
+            b = np.concatenate([p[1] for p in parts])
+            g0 = self.constant * np.exp(b[:, 0])
             b[:, 0] = 0.0
-            G[int(grp[t[0]])][row[t]] = exp_series(b, self.constant * np.exp(a[:, 0]))
-        Gi = [g / np.arange(1, g.shape[1] + 1)[None, :] for g in G]  # F = S u Σ Gi_m u^m
+            G[gi][row[t]] = exp_series(b, g0)
+        # order-major copies for horner_t; F = S u Σ Gi_m u^m
+        GT = [np.ascontiguousarray(g.T) for g in G]
+        GiT = [np.ascontiguousarray((g / np.arange(1, g.shape[1] + 1)[None, :]).T) for g in G]
         S = 2.0 * allrho
 
         def series(rows, t, integrate):
@@ -1228,8 +1244,8 @@ class DiskMap:
             for gi in range(olist.size):
                 sel = np.flatnonzero(gr == gi)
                 if sel.size:
-                    coef = Gi[gi] if integrate else G[gi]
-                    out[sel] = horner(coef, row[rows[sel]], u[sel])
+                    coef = GiT[gi] if integrate else GT[gi]
+                    out[sel] = horner_t(coef, row[rows[sel]], u[sel])
             return S[rows] * u * out if integrate else out
 
         def integral(rows, t):
