@@ -70,6 +70,12 @@ _CHUNK = 262_144
 #: relative error of 1e-16/R in the terms of the nearest prevertices.
 CROWD_RADIUS = 1e-8
 
+#: Prevertex series (:meth:`DiskMap._vertex_coefficients`) are kept on the map up to this
+#: order (points within half the neighbour distance need at most 64 terms), computed in fixed
+#: blocks of this many consecutive prevertices.
+_VERTEX_ORDER = 64
+_VERTEX_BLOCK = 64
+
 #: Distance to the nearest prevertex below which offsets from it are formed in long double.
 _EXACT_NEAR = 1e-6
 
@@ -680,6 +686,8 @@ class DiskMap:
         )
         self._diam = float(np.max(np.abs(self.vertices[:, None] - self.vertices[None, :])))
         self._accuracy: ConformalAccuracy | None = None
+        #: prevertex series by blocks (:meth:`_vertex_coefficients`): blocks done, coefficients
+        self._vertex_cache: tuple[np.ndarray, np.ndarray] | None = None
 
     prevertex_angles = property(lambda self: self.theta, doc="Alias of ``theta``.")
 
@@ -943,7 +951,35 @@ class DiskMap:
         return g, R
 
     def _vertex_coefficients(self, ks: np.ndarray, order: int) -> np.ndarray:
-        """Scaled coefficients of G_k(z_k + R_k τ) for prevertices ks."""
+        """Scaled coefficients ``g_0..g_order`` of G_k(z_k + R_k τ) for prevertices ks.
+
+        Up to :data:`_VERTEX_ORDER` they are computed once per block of
+        :data:`_VERTEX_BLOCK` consecutive prevertices at that order and kept on the map (the
+        push-forward of the vertices and of the triangle centres, the accuracy check and the
+        inverse evaluate the same prevertex series); a series of lower order is a prefix
+        (``g_m`` depends on ``b_1..b_m`` only). The blocks are fixed, so the values do not
+        depend on which points were evaluated before (the same bits in a worker process
+        that receives the map with or without them).
+        """
+        if order > _VERTEX_ORDER:
+            return self._vertex_series(ks, order)
+        if self._vertex_cache is None:
+            nb = -(-self.n // _VERTEX_BLOCK)
+            self._vertex_cache = (
+                np.zeros(nb, bool),
+                np.empty((self.n, _VERTEX_ORDER + 1), dtype=np.complex128),
+            )
+        done, coef = self._vertex_cache
+        blocks = np.unique(np.asarray(ks) // _VERTEX_BLOCK)
+        for b in blocks[~done[blocks]]:
+            checkpoint()
+            idx = np.arange(b * _VERTEX_BLOCK, min((b + 1) * _VERTEX_BLOCK, self.n))
+            coef[idx] = self._vertex_series(idx, _VERTEX_ORDER)
+            done[b] = True
+        return coef[ks, : order + 1]
+
+    def _vertex_series(self, ks: np.ndarray, order: int) -> np.ndarray:
+        """Scaled coefficients of G_k(z_k + R_k τ) for prevertices ks (computed anew)."""
         E = self._cfg.E[ks]
         Rk = self._cfg.nn[ks]
         with np.errstate(divide="ignore", invalid="ignore"):
