@@ -1299,13 +1299,17 @@ class DiskMap:
             ang = akeys[ch, 1] * (TWO_PI / AN[ch])
             jp = np.mod(np.rint(ang / (TWO_PI / Np)), Np).astype(np.int64)
             parent[ch] = match_rows(akeys, np.stack([sp, jp], axis=1))
+        # the steps from the parents are independent of the values: one series evaluation
+        # for all of them, then the sums down the levels
+        step = np.empty(akeys.shape[0], dtype=np.complex128)
+        if ch.size:
+            step[ch] = integral(K + parent[ch], apos[ch] - apos[parent[ch]])
+        checkpoint(0.85)
+        by_level = np.argsort(As, kind="stable")
+        bounds = np.searchsorted(As[by_level], np.arange(1, int(As.max()) + 2))
         for lev in range(1, int(As.max()) + 1):
-            checkpoint(0.8 + 0.1 * lev / As.max())
-            idx = np.flatnonzero(As == lev)
-            if idx.size == 0:
-                continue
-            p = parent[idx]
-            fa[idx] = fa[p] + integral(K + p, apos[idx] - apos[p])
+            idx = by_level[bounds[lev - 1] : bounds[lev]]
+            fa[idx] = fa[parent[idx]] + step[idx]
         # cluster values
         a = a_of_cluster
         fc = np.empty(K, dtype=np.complex128)
