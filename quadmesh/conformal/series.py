@@ -88,7 +88,7 @@ def horner_t(coef_t: np.ndarray, rows: np.ndarray, tau: np.ndarray) -> np.ndarra
     Horner's rule in place, each order's coefficients gathered from its contiguous row.
     """
     M1 = coef_t.shape[0]
-    acc = coef_t[M1 - 1].take(rows)
+    acc = coef_t[M1 - 1].take(rows).astype(np.result_type(coef_t, tau), copy=False)
     for m in range(M1 - 2, -1, -1):
         acc *= tau
         acc += coef_t[m].take(rows)
