@@ -325,18 +325,31 @@ def log_expansions(
     kx = np.floor(c.real / h_t).astype(np.int64)
     ky = np.floor(c.imag / h_t).astype(np.int64)
     quad_mats = _child_shifts(p)
+    # the boxes of every level, fine to coarse: a level's own targets' boxes and the parents
+    # of the finer level's boxes (unique keys in lexicographic order), with each target's box
+    # at its own level and each box's parent (one unique_rows over the boxes per level, not
+    # over all the targets below it)
+    box_of_target = np.full(K, -1, dtype=np.int64)
+    level_keys: dict[int, np.ndarray] = {}
+    parent_of: dict[int, np.ndarray] = {}
+    finer = None
+    for lev in range(lo, top + 1):
+        own = np.flatnonzero(lev_t == lev)
+        cand = np.stack([kx[own], ky[own]], axis=1)
+        if finer is not None:
+            cand = np.concatenate([cand, finer >> 1])
+        keys, inv = unique_rows(cand)
+        box_of_target[own] = inv[: own.size]
+        if finer is not None:
+            parent_of[lev - 1] = inv[own.size :]
+        level_keys[lev] = finer = keys
     prev_keys = None
     prev_exp = None
     cen_prev = None
-    box_of_target = np.full(K, -1, dtype=np.int64)
     level_exp: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for lev in range(top, lo - 1, -1):
         checkpoint(0.5 * (top - lev) / max(top - lo + 1, 1))
-        sel = np.flatnonzero(lev_t <= lev)
-        sh = lev - lev_t[sel]
-        bx = kx[sel] >> sh
-        by = ky[sel] >> sh
-        keys, inv = unique_rows(np.stack([bx, by], axis=1))
+        keys = level_keys[lev]
         h = math.ldexp(1.0, lev)
         cen = (keys[:, 0] + 0.5) * h + 1j * (keys[:, 1] + 0.5) * h
         exp = np.zeros((keys.shape[0], p + 1), dtype=np.complex128)
@@ -346,7 +359,7 @@ def log_expansions(
             pass
         else:
             pk = keys >> 1
-            pidx = match_rows(prev_keys, pk)
+            pidx = parent_of[lev]
             qx = keys[:, 0] - 2 * pk[:, 0]
             qy = keys[:, 1] - 2 * pk[:, 1]
             for (a, b_), M in quad_mats.items():
@@ -359,8 +372,6 @@ def log_expansions(
             dc = np.abs(zk[k] - cen[rows])
             keep = (dp <= 2.0 * FAR * h) & (dc > FAR * h)
             p2l(rows[keep], k[keep], zk, beta, cen, scale, p, exp)
-        here = sel[lev_t[sel] == lev]
-        box_of_target[here] = inv[lev_t[sel] == lev]
         level_exp[lev] = (cen, exp)
         prev_keys, prev_exp, cen_prev = keys, exp, cen
     out: list[tuple[np.ndarray, np.ndarray]] = []
