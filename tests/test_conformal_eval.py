@@ -52,7 +52,8 @@ def test_window_pairs_finds_exactly_the_prevertices_in_the_disk() -> None:
     assert np.bincount(rows, minlength=300).max() <= 200  # no prevertex twice
 
 
-def test_log_expansions_match_direct_sums(star_map: DiskMap) -> None:
+@pytest.mark.parametrize("direct", [False, True], ids=["tree", "direct"])
+def test_log_expansions_match_direct_sums(star_map: DiskMap, direct: bool) -> None:
     fm = star_map
     rng = np.random.default_rng(1)
     K = 600
@@ -61,7 +62,7 @@ def test_log_expansions_match_direct_sums(star_map: DiskMap) -> None:
     rho = 0.5 * R * rng.uniform(0.2, 1.0, K)
     orders = np.full(K, 64)
     worst = 0.0
-    for t, a in log_expansions(fm.prevertices, fm.theta, fm.beta, c, rho, orders):
+    for t, a in log_expansions(fm.prevertices, fm.theta, fm.beta, c, rho, orders, direct):
         u = 0.5 * np.exp(2j * np.pi * rng.uniform(0, 1, t.size))
         z = c[t] + 2 * rho[t] * u
         z = z / np.maximum(np.abs(z), 1.0)

@@ -43,7 +43,15 @@ from .quadrature import (
     make_rules,
     plan_integrals,
 )
-from .series import exp_series, horner, log_coefficients, log_expansions, match_rows, unique_rows
+from .series import (
+    exp_series,
+    horner,
+    horner_t,
+    log_coefficients,
+    log_expansions,
+    match_rows,
+    unique_rows,
+)
 
 __all__ = ["CROWD_RADIUS", "ConformalAccuracy", "DiskMap", "OffsetFunction", "TaylorSeries"]
 
@@ -61,6 +69,12 @@ _CHUNK = 262_144
 #: tree and the anchor chains work with float64 prevertices, whose ~1e-16 absolute error is a
 #: relative error of 1e-16/R in the terms of the nearest prevertices.
 CROWD_RADIUS = 1e-8
+
+#: Prevertex series (:meth:`DiskMap._vertex_coefficients`) are kept on the map up to this
+#: order (points within half the neighbour distance need at most 64 terms), computed in fixed
+#: blocks of this many consecutive prevertices.
+_VERTEX_ORDER = 64
+_VERTEX_BLOCK = 64
 
 #: Distance to the nearest prevertex below which offsets from it are formed in long double.
 _EXACT_NEAR = 1e-6
@@ -672,6 +686,8 @@ class DiskMap:
         )
         self._diam = float(np.max(np.abs(self.vertices[:, None] - self.vertices[None, :])))
         self._accuracy: ConformalAccuracy | None = None
+        #: prevertex series by blocks (:meth:`_vertex_coefficients`): blocks done, coefficients
+        self._vertex_cache: tuple[np.ndarray, np.ndarray] | None = None
 
     prevertex_angles = property(lambda self: self.theta, doc="Alias of ``theta``.")
 
@@ -935,7 +951,35 @@ class DiskMap:
         return g, R
 
     def _vertex_coefficients(self, ks: np.ndarray, order: int) -> np.ndarray:
-        """Scaled coefficients of G_k(z_k + R_k τ) for prevertices ks."""
+        """Scaled coefficients ``g_0..g_order`` of G_k(z_k + R_k τ) for prevertices ks.
+
+        Up to :data:`_VERTEX_ORDER` they are computed once per block of
+        :data:`_VERTEX_BLOCK` consecutive prevertices at that order and kept on the map (the
+        push-forward of the vertices and of the triangle centres, the accuracy check and the
+        inverse evaluate the same prevertex series); a series of lower order is a prefix
+        (``g_m`` depends on ``b_1..b_m`` only). The blocks are fixed, so the values do not
+        depend on which points were evaluated before (the same bits in a worker process
+        that receives the map with or without them).
+        """
+        if order > _VERTEX_ORDER:
+            return self._vertex_series(ks, order)
+        if self._vertex_cache is None:
+            nb = -(-self.n // _VERTEX_BLOCK)
+            self._vertex_cache = (
+                np.zeros(nb, bool),
+                np.empty((self.n, _VERTEX_ORDER + 1), dtype=np.complex128),
+            )
+        done, coef = self._vertex_cache
+        blocks = np.unique(np.asarray(ks) // _VERTEX_BLOCK)
+        for b in blocks[~done[blocks]]:
+            checkpoint()
+            idx = np.arange(b * _VERTEX_BLOCK, min((b + 1) * _VERTEX_BLOCK, self.n))
+            coef[idx] = self._vertex_series(idx, _VERTEX_ORDER)
+            done[b] = True
+        return coef[ks, : order + 1]
+
+    def _vertex_series(self, ks: np.ndarray, order: int) -> np.ndarray:
+        """Scaled coefficients of G_k(z_k + R_k τ) for prevertices ks (computed anew)."""
         E = self._cfg.E[ks]
         Rk = self._cfg.nn[ks]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -1213,12 +1257,20 @@ class DiskMap:
         G = [np.empty((int(np.sum(orders == o)), int(o) + 1), dtype=np.complex128) for o in olist]
         for gi in range(olist.size):
             row[grp == gi] = np.arange(G[gi].shape[0])
-        for gi, (t, a) in enumerate(groups):
-            checkpoint(0.6 + 0.2 * gi / len(groups))
-            b = a.copy()
+        # one exp_series per order (the tree returns a group per order and level)
+        by_order: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        for t, a in groups:
+            by_order.setdefault(int(grp[t[0]]), []).append((t, a))
+        for n_done, (gi, parts) in enumerate(by_order.items()):
+            checkpoint(0.6 + 0.2 * n_done / len(by_order))
+            t = np.concatenate([p[0] for p in parts])
+            b = np.concatenate([p[1] for p in parts])
+            g0 = self.constant * np.exp(b[:, 0])
             b[:, 0] = 0.0
-            G[int(grp[t[0]])][row[t]] = exp_series(b, self.constant * np.exp(a[:, 0]))
-        Gi = [g / np.arange(1, g.shape[1] + 1)[None, :] for g in G]  # F = S u Σ Gi_m u^m
+            G[gi][row[t]] = exp_series(b, g0)
+        # order-major copies for horner_t; F = S u Σ Gi_m u^m
+        GT = [np.ascontiguousarray(g.T) for g in G]
+        GiT = [np.ascontiguousarray((g / np.arange(1, g.shape[1] + 1)[None, :]).T) for g in G]
         S = 2.0 * allrho
 
         def series(rows, t, integrate):
@@ -1228,8 +1280,8 @@ class DiskMap:
             for gi in range(olist.size):
                 sel = np.flatnonzero(gr == gi)
                 if sel.size:
-                    coef = Gi[gi] if integrate else G[gi]
-                    out[sel] = horner(coef, row[rows[sel]], u[sel])
+                    coef = GiT[gi] if integrate else GT[gi]
+                    out[sel] = horner_t(coef, row[rows[sel]], u[sel])
             return S[rows] * u * out if integrate else out
 
         def integral(rows, t):
@@ -1247,13 +1299,17 @@ class DiskMap:
             ang = akeys[ch, 1] * (TWO_PI / AN[ch])
             jp = np.mod(np.rint(ang / (TWO_PI / Np)), Np).astype(np.int64)
             parent[ch] = match_rows(akeys, np.stack([sp, jp], axis=1))
+        # the steps from the parents are independent of the values: one series evaluation
+        # for all of them, then the sums down the levels
+        step = np.empty(akeys.shape[0], dtype=np.complex128)
+        if ch.size:
+            step[ch] = integral(K + parent[ch], apos[ch] - apos[parent[ch]])
+        checkpoint(0.85)
+        by_level = np.argsort(As, kind="stable")
+        bounds = np.searchsorted(As[by_level], np.arange(1, int(As.max()) + 2))
         for lev in range(1, int(As.max()) + 1):
-            checkpoint(0.8 + 0.1 * lev / As.max())
-            idx = np.flatnonzero(As == lev)
-            if idx.size == 0:
-                continue
-            p = parent[idx]
-            fa[idx] = fa[p] + integral(K + p, apos[idx] - apos[p])
+            idx = by_level[bounds[lev - 1] : bounds[lev]]
+            fa[idx] = fa[parent[idx]] + step[idx]
         # cluster values
         a = a_of_cluster
         fc = np.empty(K, dtype=np.complex128)
