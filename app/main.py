@@ -75,11 +75,15 @@ def run(argv: Sequence[str] | None = None) -> int:
         return 2
 
     from PySide6.QtWidgets import QApplication
+    from threadpoolctl import threadpool_limits
 
     from quadmesh.errors import QuadmeshError
 
     from .window import MainWindow
 
+    # the mesher runs in a worker thread, where it leaves the process's BLAS limit alone
+    # (MeshOptions.blas_threads): set it here, once, before any thread starts
+    threadpool_limits(limits=1, user_api="blas")
     app = QApplication.instance() or QApplication(sys.argv[:1])
     # the views render when something changes, never on a timer (idle = no CPU)
     win = MainWindow(popups=not args.quit)

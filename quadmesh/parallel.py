@@ -99,15 +99,39 @@ def process_context() -> Any:
     return mp.get_context("spawn")
 
 
-def blas_threads(threads: int | None) -> contextlib.AbstractContextManager[Any]:
-    """A context in which the BLAS/LAPACK libraries loaded by numpy and scipy use at most
-    ``threads`` threads (``MeshOptions.blas_threads``); their settings are restored on exit.
-    None: a context that changes nothing."""
-    if threads is None:
-        return contextlib.nullcontext()
-    from threadpoolctl import threadpool_limits
+#: The BLAS limiter of the outermost :func:`blas_threads` in this process, and how deep the
+#: nesting is (arms and bridges mesh their parts by nested calls).
+_blas_limiter: Any = None
+_blas_depth = 0
 
-    return threadpool_limits(limits=int(threads), user_api="blas")
+
+@contextlib.contextmanager
+def blas_threads(threads: int | None) -> Iterator[None]:
+    """A context in which the BLAS/LAPACK libraries loaded by numpy and scipy use at most
+    ``threads`` threads (``MeshOptions.blas_threads``); their settings are restored when the
+    outermost such context ends. None: nothing changes.
+
+    The limit is process-wide state that other threads may be using, and changing it while
+    another thread runs a BLAS call or sets it too is not safe (OpenBLAS keeps one global
+    thread count; threadpoolctl's save-and-restore races). So only the main thread sets it:
+    a call from any other thread (the app's mesher thread, a thread pool) runs with the
+    process's limits as they are — the app sets its limit once at start-up."""
+    global _blas_limiter, _blas_depth
+    if threads is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    if _blas_depth == 0:
+        from threadpoolctl import threadpool_limits
+
+        _blas_limiter = threadpool_limits(limits=int(threads), user_api="blas")
+    _blas_depth += 1
+    try:
+        yield
+    finally:
+        _blas_depth -= 1
+        if _blas_depth == 0:
+            _blas_limiter.restore_original_limits()
+            _blas_limiter = None
 
 
 def make_pool(jobs: int) -> ProcessPoolExecutor:

@@ -98,12 +98,14 @@ class MeshOptions:
             bit (:mod:`quadmesh.parallel`). Each call starts its pool, so it pays only when the
             pieces take seconds each (measured in the README).
         blas_threads: threads the BLAS/LAPACK libraries under numpy and scipy (OpenBLAS,
-            MKL) may use during the call, restored afterwards; None leaves them as they are.
-            The mesher's matrix work is small per call, and a multi-threaded BLAS on a busy
-            machine spins its threads against the other processes: on a 2-core machine
-            with one other busy process, the harmonic measure of a 1010-vertex river took
-            10.9 s with the default two threads and 0.67 s with one. Parallel work belongs
-            in ``jobs``.
+            MKL) may use during a call made from the main thread, restored afterwards; None
+            leaves them as they are. The mesher's matrix work is small per call, and a
+            multi-threaded BLAS on a busy machine spins its threads against the other
+            processes: on a 2-core machine with one other busy process, the harmonic measure
+            of a 1010-vertex river took 10.9 s with the default two threads and 0.67 s with
+            one. Parallel work belongs in ``jobs``. The limit is process-wide, so a call from
+            another thread leaves it alone (set it once for the process instead, e.g. with
+            ``threadpoolctl.threadpool_limits(1, "blas")`` before starting threads).
     """
 
     n: int = 2

@@ -194,9 +194,10 @@ def _blas_threads() -> list[int]:
 
 
 def test_blas_runs_single_threaded_during_a_call_and_is_restored_after():
-    """``MeshOptions.blas_threads`` (default 1) holds for the whole call — seen from the
-    progress callback, which runs inside it — and the caller's setting comes back after;
-    None leaves the libraries alone."""
+    """``MeshOptions.blas_threads`` (default 1) holds for the whole call from the main thread —
+    seen from the progress callback, which runs inside it — and the caller's setting comes
+    back after; None leaves the libraries alone, and so does a call from another thread (the
+    limit is process-wide state that thread could race on)."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=2, user_api="blas"):
@@ -213,5 +214,15 @@ def test_blas_runs_single_threaded_during_a_call_and_is_restored_after():
             load_example("l_shape"), opts, progress=lambda *_: seen.append(_blas_threads())
         )
         assert seen and all(t == before for t in seen)
+        seen.clear()
+        th = threading.Thread(
+            target=mesh_polygon,
+            args=(load_example("l_shape"),),
+            kwargs={"progress": lambda *_: seen.append(_blas_threads())},
+        )
+        th.start()
+        th.join(60)
+        assert seen and all(t == before for t in seen)
+        assert _blas_threads() == before
     with pytest.raises(ValueError, match="blas_threads"):
         MeshOptions(blas_threads=0)
