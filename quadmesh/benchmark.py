@@ -27,6 +27,7 @@ A benchmark, not a test: the numbers depend on the machine and its load.
 from __future__ import annotations
 
 import argparse
+import threading
 import time
 from collections.abc import Callable, Sequence
 
@@ -593,9 +594,16 @@ def gmsh_quad_mesh(vertices: np.ndarray, size: float) -> dict:
     every polygon vertex and at most ``size`` anywhere. Returns ``nodes`` (N, 2), ``quads``
     (Q, 4) and ``triangles`` (T, 3) as 0-based node indices (the triangles Gmsh left), and
     ``time``: seconds of ``gmsh.model.mesh.generate(2)`` alone."""
+    import signal
+
     import gmsh
 
     gmsh.initialize(interruptible=False)
+    # Gmsh's start-up sets SIGPIPE back to its default action, which kills the process on a
+    # write to a closed pipe (a process pool's queue after its workers stopped) where Python
+    # raises BrokenPipeError; put back what Python had (from the main thread, which can)
+    if hasattr(signal, "SIGPIPE") and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGPIPE, signal.getsignal(signal.SIGPIPE))
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.option.setNumber("General.Verbosity", 0)

@@ -275,6 +275,32 @@ def test_gmsh_quad_mesh_of_the_l_shape() -> None:
     assert 0 < st["share_ok"] <= 1 and st["min"] < 90 < st["max"]
 
 
+def test_gmsh_leaves_a_broken_pipe_an_error_not_a_kill() -> None:
+    """Gmsh's start-up sets SIGPIPE to its default action; after ``gmsh_quad_mesh`` a write to
+    a closed pipe (a process pool's queue once its workers stopped) must raise BrokenPipeError
+    as in any Python process, not kill it (this killed the test process, exit status 141).
+    Run in a child process, so that a regression cannot take the test run with it."""
+    pytest.importorskip("gmsh")
+    import subprocess
+
+    code = (
+        "import os, numpy as np\n"
+        "from quadmesh.benchmark import gmsh_quad_mesh\n"
+        "gmsh_quad_mesh(np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]), 0.25)\n"
+        "r, w = os.pipe()\n"
+        "os.close(r)\n"
+        "try:\n"
+        "    os.write(w, b'x')\n"
+        "except BrokenPipeError:\n"
+        "    print('broken pipe')\n"
+    )
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=root
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "broken pipe", done.stderr
+
+
 def test_cli_batch_blocks_with_a_size_relative_to_each_polygon(folder, tmp_path, capsys) -> None:
     """``--method blocks --size 0.1d``: every file is meshed by blocks at a tenth of its own
     diameter (the same quads as mesh_polygon with that absolute size), in two worker processes;
