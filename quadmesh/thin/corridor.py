@@ -234,6 +234,7 @@ def ladder_layout(
     partial: bool = False,
     deadline: float | None = None,
     sector_chords: int = 16,
+    tip_reach: bool = True,
 ) -> CorridorLayout:
     """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
     its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
@@ -242,6 +243,9 @@ def ladder_layout(
     ``deadline`` (a :func:`time.perf_counter` value) bounds the search for sectors at bends,
     its most expensive part on long ragged walls. ``sector_chords``: the least number of
     chords on the crosscut of a round end's or a bend's sector (:func:`_sector_points`).
+    ``tip_reach``: near the tips, rungs reach three times the distance to the other wall even
+    where the wall normal meets the corridor's own end sooner (off for a bridge, whose first
+    rung must be its cut).
 
     Raises:
         ThinPartError: no admissible layout exists with the sampled rung ends (the message
@@ -355,10 +359,12 @@ def ladder_layout(
     okL = (~L.is_vertex) | (L.theta > 120.0 + margin)
     okR = (~R.is_vertex) | (R.theta > 120.0 + margin)
     ia = np.flatnonzero(okL)
-    # (the facing distance along the normal can hit the corridor's own end near a tip: the
-    # distance to the other wall bounds the reach from below)
+    # (near a tip the facing distance along the normal can hit the corridor's own end edge:
+    # there the distance to the other wall bounds the reach from below)
     across = tr.query(np.column_stack([L.pos[ia].real, L.pos[ia].imag]))[0]
-    reach = 3.0 * np.maximum(L.width[ia], across) + 1e-300
+    near_tip = (L.sigma[ia] <= 3.0 * across) | (L.sigma[-1] - L.sigma[ia] <= 3.0 * across)
+    near_tip &= tip_reach
+    reach = 3.0 * np.where(near_tip, np.maximum(L.width[ia], across), L.width[ia]) + 1e-300
     rxy = np.column_stack([R.pos.real, R.pos.imag])
     rtree = cKDTree(rxy)
     cand = rtree.query_ball_point(np.column_stack([L.pos[ia].real, L.pos[ia].imag]), reach)
@@ -1891,7 +1897,7 @@ def bridge_layout(part: np.ndarray) -> tuple[CorridorLayout, np.ndarray, np.ndar
     if far is None:
         return None
     try:
-        lay = ladder_layout(q, (m - 2, far), partial=True)
+        lay = ladder_layout(q, (m - 2, far), partial=True, tip_reach=False)
     except ThinPartError:
         return None
     cut0 = {int(lay.rungs[0][0]), int(lay.rungs[0][1])}
