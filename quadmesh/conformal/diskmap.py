@@ -49,6 +49,7 @@ from .series import (
     horner_t,
     log_coefficients,
     log_expansions,
+    log_series,
     match_rows,
     unique_rows,
 )
@@ -1172,8 +1173,9 @@ class DiskMap:
                 checkpoint()
                 ch = sel[i : i + step]
                 A = self._cfg.E[kc[ch]] - s[ch, None]  # z_j − c
-                lam0 = beta_log_sum(A * zc[None, :], self.beta)  # Σ β_j log(1 − c/z_j)
-                b = log_coefficients(S[ch, None] / A, self.beta, int(o))
+                b = log_series(A, zc, self.beta, S[ch], int(o))
+                lam0 = b[:, 0].copy()  # Σ β_j log(1 − c/z_j)
+                b[:, 0] = 0.0
                 G[i : i + step] = exp_series(b, self.constant * np.exp(lam0))
             remap = np.full(K, -1)
             remap[sel] = np.arange(sel.size)

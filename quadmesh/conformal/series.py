@@ -34,6 +34,7 @@ __all__ = [
     "horner_t",
     "log_coefficients",
     "log_expansions",
+    "log_series",
     "match_rows",
     "unique_rows",
     "window_pairs",
@@ -52,6 +53,18 @@ def log_coefficients(q: np.ndarray, beta: np.ndarray, order: int) -> np.ndarray:
         P *= q
         b[:, m] = -(P.real @ beta + 1j * (P.imag @ beta)) / m
     return b
+
+
+def log_series(
+    d: np.ndarray, zc: np.ndarray, beta: np.ndarray, scale: np.ndarray, order: int
+) -> np.ndarray:
+    """Coefficients of ``Σ_k β_k Log(1 − (c + scale·τ)/z_k)`` in τ, one row per centre c, from
+    the differences ``d = z_k − c`` (K, n) — as they come, so that local-coordinate differences
+    keep their accuracy: ``a_0 = Σ_k β_k Log(d_k z̄_k)`` (``1 − c/z_k = (z_k − c) z̄_k``) and
+    ``a_m`` of :func:`log_coefficients` with ``q_k = scale/d_k``. Returns (K, order + 1)."""
+    a = log_coefficients(scale[:, None] / d, beta, order)
+    a[:, 0] = beta_log_sum(d * zc[None, :], beta)
+    return a
 
 
 def exp_series(b: np.ndarray, g0: np.ndarray) -> np.ndarray:
@@ -285,9 +298,7 @@ def direct_expansions(
         for i in range(0, t.size, step):
             checkpoint()
             ti = t[i : i + step]
-            d = zk[None, :] - c[ti, None]
-            a[i : i + step] = log_coefficients((2.0 * rho[ti])[:, None] / d, beta, int(o))
-            a[i : i + step, 0] = beta_log_sum(d * zc[None, :], beta)  # 1 − c/z_k = (z_k − c) z̄_k
+            a[i : i + step] = log_series(zk[None, :] - c[ti, None], zc, beta, 2.0 * rho[ti], int(o))
         out.append((t, a))
     return out
 
