@@ -372,7 +372,18 @@ def _times_reflections(
     the matrices of the σ_k in the precision wanted (default: REFLECTIONS', long double)."""
     R = (REFLECTIONS.M if reflections is None else reflections)[k]
     R = np.where(sigma[:, None, None], np.conj(R), R)
-    return M @ R, ~sigma
+    if M.dtype != np.complex128:
+        return M @ R, ~sigma
+    # stacked 2×2 products entry by entry: numpy's matmul on (k, 2, 2) complex128 stacks
+    # goes through a per-matrix BLAS call (~450 ns a product against ~80 ns here)
+    out = np.empty_like(M)
+    m00, m01, m10, m11 = M[:, 0, 0], M[:, 0, 1], M[:, 1, 0], M[:, 1, 1]
+    r00, r01, r10, r11 = R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1]
+    out[:, 0, 0] = m00 * r00 + m01 * r10
+    out[:, 0, 1] = m00 * r01 + m01 * r11
+    out[:, 1, 0] = m10 * r00 + m11 * r10
+    out[:, 1, 1] = m10 * r01 + m11 * r11
+    return out, ~sigma
 
 
 # --------------------------------------------------------------------------- tile sets
