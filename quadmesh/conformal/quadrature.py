@@ -19,11 +19,20 @@ Gauss–Legendre panel no longer than ``ratio`` times the distance from its star
 prevertex. All integrals are marched together (one vectorised step per panel), and the
 integrand and its θ-derivatives (for the analytic Jacobian, §1.8 (a)) are evaluated in one
 chunked pass over all nodes.
+
+Far field. From :data:`FAR_MIN_N` prevertices on, the factors of the prevertices far from an
+integral's nodes (beyond :data:`FAR_KAPPA` times the nodes' radius) enter through one Taylor
+expansion of ``Σ β_j Log(1 − s/z_j)`` about the nodes' centre, and their Jacobian columns
+through the nodes' moments; only the few near prevertices are evaluated at every node. At
+n = 1000 an evaluation of the parameter problem's 2n + 1 integrals costs ~0.2 s instead of
+~1.0 s (0.45 instead of 1.0 s with the Jacobian), with the same accuracy (both within ~1e-14
+of long-double sums on the same nodes).
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -275,12 +284,199 @@ def _nodes(
     return owner, np.repeat(base, m), d.ravel(), W.ravel(), P
 
 
+#: The integrand's far part is summed by expansions (:func:`_far_sums`) for configurations of
+#: at least this many prevertices; below, every node takes the direct sum over all of them.
+FAR_MIN_N = 96
+#: A prevertex is *near* an integral when it lies within FAR_KAPPA times the radius of the
+#: integral's nodes (about their centre); its factor is then evaluated at every node, and the
+#: others enter through one Taylor expansion about the centre, whose terms shrink like
+#: 1/FAR_KAPPA per order.
+FAR_KAPPA = 10.0
+#: Integrals with more near prevertices than this (long paths across the disk, crowded
+#: clusters) are summed directly.
+FAR_NEAR_MAX = 40
+#: Truncation target of the expansions, relative to Σ|β_j|: 1e-17 for the integrals, 1e-12
+#: for the Jacobian columns (Newton's direction needs far fewer digits than the residual).
+FAR_TOL = 1e-17
+FAR_TOL_JAC = 1e-12
+#: (integral, prevertex) pairs per block of the expansion sums (the work arrays of a block
+#: stay a few MB)
+_FAR_BLOCK = 262_144
+
+
+def _group_starts(owner: np.ndarray) -> np.ndarray:
+    """Start of each run of equal values in the sorted ``owner``."""
+    return np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+
+
+def _far_split(
+    cfg: Configuration, owner: np.ndarray, base: np.ndarray, d: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Which integrals take the far-field sums, and their data.
+
+    Nodes are sorted by integral (``owner``) and all nodes of an integral share its base. Per
+    integral with nodes: the centre ``c`` of the nodes' bounding box (local offset from the
+    base), their radius ``r`` about it, the near prevertices (base excluded: its factor is in
+    the weights) within ``FAR_KAPPA·r``, and the scale ``R``, the distance from ``c`` to the
+    nearest far prevertex (so ``|t|/R ≤ 1/FAR_KAPPA`` at every node). Returns ``(starts, ok,
+    c, R, near_idx, near_cnt, ratio)``: group starts in the node order, a mask of the groups
+    that take the far-field route, and for those (in group order) the centre, scale, padded
+    near indices (−1 pads), their counts, and the largest ``r/R``.
+    """
+    n = cfg.n
+    starts = _group_starts(owner)
+    gb = base[starts]
+    dr, di = d.real, d.imag
+    c = 0.5 * (np.minimum.reduceat(dr, starts) + np.maximum.reduceat(dr, starts)) + 0.5j * (
+        np.minimum.reduceat(di, starts) + np.maximum.reduceat(di, starts)
+    )
+    gid = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, d.size]))
+    r = np.maximum.reduceat(np.abs(d - c[gid]), starts)
+    G = starts.size
+    near_cnt = np.zeros(G, dtype=np.intp)
+    R = np.full(G, np.inf)
+    rows_near: list[np.ndarray] = []
+    cols_near: list[np.ndarray] = []
+    step = max(1, _FAR_BLOCK // max(n, 1))
+    for g0 in range(0, G, step):
+        g = np.arange(g0, min(G, g0 + step))
+        D = np.abs(cfg.E[gb[g]] - c[g, None])
+        pv = gb[g] < n
+        D[np.flatnonzero(pv), gb[g][pv]] = np.inf  # the base: in the weights
+        near = D < FAR_KAPPA * r[g, None]
+        rr, cc = np.nonzero(near)
+        rows_near.append(rr + g0)
+        cols_near.append(cc)
+        near_cnt[g] = np.bincount(rr, minlength=g.size)
+        D[near] = np.inf
+        R[g] = D.min(axis=1)
+    ok = (near_cnt <= FAR_NEAR_MAX) & np.isfinite(R) & (R > 0)
+    rr = np.concatenate(rows_near)
+    cc = np.concatenate(cols_near)
+    keep = ok[rr]
+    rr, cc = rr[keep], cc[keep]
+    okg = np.flatnonzero(ok)
+    slot = np.full(G, -1)
+    slot[okg] = np.arange(okg.size)
+    L = int(near_cnt[ok].max()) if okg.size else 0
+    near_idx = np.full((okg.size, max(L, 1)), -1, dtype=np.intp)
+    if rr.size:
+        row = slot[rr]
+        first = np.searchsorted(row, np.arange(okg.size))
+        pos = np.arange(rr.size) - first[row]
+        near_idx[row, pos] = cc
+    ratio = float(np.max(r[ok] / R[ok])) if okg.size else 0.0
+    return starts, ok, c[ok], R[ok], near_idx, near_cnt[ok], ratio
+
+
+def _far_order(ratio: float, tol: float) -> int:
+    """Terms of an expansion whose k-th term is at most ``ratio^k``: ``ratio^(M+1) ≤ tol``."""
+    if ratio <= 0.0:
+        return 1
+    return int(min(60, max(1, math.ceil(math.log(tol) / math.log(ratio)) - 1)))
+
+
+def _far_coefficients(
+    cfg: Configuration,
+    gb: np.ndarray,
+    c: np.ndarray,
+    R: np.ndarray,
+    near_idx: np.ndarray,
+    order: int,
+    moments: np.ndarray | None = None,
+    jac_order: int = 0,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Expansion of the far part of ``Σ_j β_j Log(1 − s/z_j)`` about each centre, and the far
+    Jacobian columns.
+
+    For integral g (base ``gb[g]``, centre ``c[g]`` as a local offset, scale ``R[g]``) the far
+    prevertices j (neither the base nor near) give ``a_0 = Σ β_j Log((z_j − c) z̄_j)`` and
+    ``a_m = −(1/m) Σ β_j q_j^m`` with ``q_j = R/(z_j − c)`` (differences from the
+    local-coordinate rows ``E``, accurate under crowding): the far part at the node ``c + Rτ``
+    is ``Σ_m a_m τ^m``. With ``moments`` (G, jac_order+1), ``M_p = Σ_nodes v τ^p``, also
+    returns ``Σ_nodes v/(z_j − s) = (1/R) Σ_p M_p q_j^{p+1}`` for the far columns (zero
+    elsewhere), shape (G, n).
+    """
+    n = cfg.n
+    G = gb.size
+    beta = cfg.beta
+    zc = cfg.zc
+    a = np.zeros((G, order + 1), dtype=np.complex128)
+    J = np.zeros((G, n), dtype=np.complex128) if moments is not None else None
+    step = max(1, _FAR_BLOCK // max(n, 1))
+    beta_c = beta.astype(np.complex128)  # a complex matrix-vector product (zgemv) is ~5×
+    # faster than two real ones on the strided real and imaginary parts
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for g0 in range(0, G, step):
+            checkpoint()
+            g = slice(g0, min(G, g0 + step))
+            k = g.stop - g.start
+            dE = cfg.E[gb[g]] - c[g, None]
+            far = np.ones((k, n), dtype=bool)
+            pv = np.flatnonzero(gb[g] < n)
+            far[pv, gb[g][pv]] = False
+            ni = near_idx[g]
+            nr, nc = np.nonzero(ni >= 0)
+            far[nr, ni[nr, nc]] = False
+            # q = R/dE = R·conj(dE)/|dE|² in real arithmetic (complex division is ~3× slower)
+            m2 = dE.real * dE.real
+            m2 += dE.imag * dE.imag
+            inv = np.divide(R[g, None], m2)
+            inv[~far] = 0.0
+            q = np.empty_like(dE)
+            np.multiply(dE.real, inv, out=q.real)
+            np.multiply(dE.imag, inv, out=q.imag)
+            np.negative(q.imag, out=q.imag)
+            if order:
+                # a_0: Re Log((z_j − c) z̄_j) = log|z_j − c| (|z_j| = 1)
+                lr = np.log(m2, out=m2)
+                B = dE * zc[None, :]
+                la = np.arctan2(B.imag, B.real)
+                lr[~far] = 0.0
+                la[~far] = 0.0
+                a[g, 0] = lr @ (0.5 * beta) + 1j * (la @ beta)
+                P = q.copy()
+                a[g, 1] = -(P @ beta_c)
+                for mm in range(2, order + 1):
+                    P *= q
+                    a[g, mm] = -(P @ beta_c) / mm
+            if moments is not None:
+                # Σ_p M_p q^{p+1} by Horner's rule in q
+                acc = np.broadcast_to(moments[g, jac_order, None], (k, n)).copy()
+                for p in range(jac_order - 1, -1, -1):
+                    acc *= q
+                    acc += moments[g, p, None]
+                acc *= q
+                acc /= R[g, None]
+                J[g] = acc
+    return a, J
+
+
+def _near_logs(
+    cfg: Configuration, base: np.ndarray, d: np.ndarray, idx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Near prevertices' part ``Σ β_j Log(1 − s/z_j)`` at nodes (base, offset d), with the
+    padded near indices ``idx`` (nodes × L, −1 pads); also ``z_j − s`` (0 at pads) for the
+    Jacobian."""
+    valid = idx >= 0
+    j = np.where(valid, idx, 0)
+    A = cfg.E[base[:, None], j] - d[:, None]
+    A = np.where(valid, A, 1.0)
+    B = A * cfg.zc[j]
+    bw = np.where(valid, cfg.beta[j], 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = 0.5 * np.log(B.real * B.real + B.imag * B.imag)
+        s = (s * bw).sum(axis=1) + 1j * (np.arctan2(B.imag, B.real) * bw).sum(axis=1)
+    return s, np.where(valid, A, 0.0)
+
+
 def integrate(
     cfg: Configuration,
     plan: IntegralPlan,
     rules: tuple[np.ndarray, np.ndarray],
     *,
     jacobian: bool = False,
+    far: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """Evaluate the planned integrals ``H_i = ∫ F`` and, optionally, ``∂H_i/∂θ_j``.
 
@@ -288,6 +484,12 @@ def integrate(
     ``∂H/∂θ_j = iβ_j ∫ F(s) s/(z_j − s) ds`` for ``j ≠ b``. The column of the base
     prevertex ``b`` is left zero: derivatives w.r.t. gaps never need it (see
     :func:`gap_jacobian`). Returns ``(H, J)`` with ``J`` of shape ``(nint, n)`` or None.
+
+    ``far`` (default: from :data:`FAR_MIN_N` prevertices on) sums the prevertices far from an
+    integral's nodes through one Taylor expansion about the nodes' centre (:func:`_far_split`):
+    O(order) per node and O(order) per (integral, prevertex) pair instead of a logarithm and an
+    arctangent per (node, prevertex) pair; the near ones and the integrals with many near
+    prevertices are summed directly.
     """
     n = cfg.n
     m = rules[0].shape[1]
@@ -297,9 +499,99 @@ def integrate(
     nint = plan.nint
     H = np.zeros(nint, dtype=np.complex128)
     J = np.zeros((nint, n), dtype=np.complex128) if jacobian else None
-    Q = owner.size
-    if Q == 0:
+    if owner.size == 0:
         return H, J
+    if far is None:
+        far = n >= FAR_MIN_N
+    direct = np.ones(owner.size, dtype=bool)
+    if far:
+        direct = _integrate_far(cfg, owner, base, d, W, H, J)
+    if np.any(direct):
+        sel = np.flatnonzero(direct)
+        _integrate_direct(cfg, owner[sel], base[sel], d[sel], W[sel], m, H, J)
+    if not np.all(np.isfinite(H)):
+        raise QuadratureError("non-finite integral (coalesced prevertices)")
+    if jacobian:
+        J *= 1j * cfg.beta[None, :]
+        if not np.all(np.isfinite(J)):
+            raise QuadratureError("non-finite Jacobian (coalesced prevertices)")
+    return H, J
+
+
+def _integrate_far(
+    cfg: Configuration,
+    owner: np.ndarray,
+    base: np.ndarray,
+    d: np.ndarray,
+    W: np.ndarray,
+    H: np.ndarray,
+    J: np.ndarray | None,
+) -> np.ndarray:
+    """Add the integrals (and Jacobian sums, without the factor iβ_j) of the integrals that
+    take the far-field route to ``H`` (and ``J``); returns the mask of the nodes left to the
+    direct sums."""
+    nint = H.size
+    starts, ok, c, R, near_idx, _, ratio = _far_split(cfg, owner, base, d)
+    sizes = np.diff(np.r_[starts, owner.size])
+    node_ok = np.repeat(ok, sizes)
+    if not np.any(ok):
+        return ~node_ok
+    sel = np.flatnonzero(node_ok)
+    okg = np.flatnonzero(ok)
+    g_of = np.repeat(np.arange(okg.size), sizes[ok])  # group (among ok) of each selected node
+    gb = base[starts[okg]]
+    ob, od, oW = base[sel], d[sel], W[sel]
+    tau = (od - c[g_of]) / R[g_of]
+    order_h = _far_order(ratio, FAR_TOL)
+    a, _ = _far_coefficients(cfg, gb, c, R, near_idx, order_h)
+    from .series import horner  # (series imports this module)
+
+    logf = horner(a, g_of, tau)
+    nl, A_near = _near_logs(cfg, ob, od, near_idx[g_of])
+    val = oW * np.exp(logf + nl)
+    oo = owner[sel]
+    H += np.bincount(oo, weights=val.real, minlength=nint) + 1j * np.bincount(
+        oo, weights=val.imag, minlength=nint
+    )
+    if J is not None:
+        z_abs = np.append(cfg.z, 0.0)
+        v = val * (z_abs[ob] + od)
+        order_j = _far_order(ratio, FAR_TOL_JAC)
+        # moments Σ v τ^p per integral, p = 0..order_j
+        pw = np.ones_like(tau)
+        mom = np.empty((okg.size, order_j + 1), dtype=np.complex128)
+        gstart = _group_starts(g_of)
+        for p in range(order_j + 1):
+            mom[:, p] = np.add.reduceat(v * pw, gstart)
+            pw = pw * tau
+        _, Jf = _far_coefficients(cfg, gb, c, R, near_idx, 0, mom, order_j)
+        J[owner[starts[okg]]] += Jf
+        with np.errstate(divide="ignore", invalid="ignore"):
+            contrib = np.where(A_near != 0, v[:, None] / A_near, 0.0)
+        # per integral first (its near prevertices are distinct), then one scatter
+        per = np.add.reduceat(contrib, gstart, axis=0)
+        rr, ll = np.nonzero(near_idx >= 0)
+        J[owner[starts[okg]][rr], near_idx[rr, ll]] += per[rr, ll]
+    return ~node_ok
+
+
+def _integrate_direct(
+    cfg: Configuration,
+    owner: np.ndarray,
+    base: np.ndarray,
+    d: np.ndarray,
+    W: np.ndarray,
+    m: int,
+    H: np.ndarray,
+    J: np.ndarray | None,
+) -> None:
+    """Add the integrals of the given nodes (sorted by integral) to ``H`` (and the Jacobian
+    sums, without the factor iβ_j, to ``J``) by direct sums over all prevertices at every
+    node, in chunks of whole integrals."""
+    n = cfg.n
+    nint = H.size
+    Q = owner.size
+    jacobian = J is not None
     step = max(m, _CHUNK_ENTRIES // max(n, 1))
     # split at owner boundaries so that each chunk holds whole integrals
     bounds = [0]
@@ -370,13 +662,6 @@ def integrate(
                 t1 = np.multiply(rr, vi, out=T2[:k])
                 t1 -= np.multiply(ri, vr, out=inv)
                 J[uo] += 1j * np.add.reduceat(t1, starts, axis=0)
-    if not np.all(np.isfinite(H)):
-        raise QuadratureError("non-finite integral (coalesced prevertices)")
-    if jacobian:
-        J *= 1j * beta[None, :]
-        if not np.all(np.isfinite(J)):
-            raise QuadratureError("non-finite Jacobian (coalesced prevertices)")
-    return H, J
 
 
 def endpoint_values(cfg: Configuration, base: np.ndarray, end: np.ndarray) -> np.ndarray:
