@@ -53,8 +53,20 @@ def smooth_star(n: int, seed: int = 0, amplitude: float = 0.35) -> np.ndarray:
 SIZES = (10, 30, 100, 300, 1000)
 
 
+def peak_rss_mb() -> float:
+    """Peak resident memory of this process so far (MB; ``getrusage``), NaN where the
+    platform does not report it."""
+    try:
+        import resource
+    except ImportError:  # not on Windows
+        return float("nan")
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
 def run(max_n: int = 1000, repeat: int = 1, options: MeshOptions | None = None) -> list[dict]:
-    """Mesh stars of n = 10, 30, 100, 300, 1000 (≤ max_n) vertices; one row per n."""
+    """Mesh stars of n = 10, 30, 100, 300, 1000 (≤ max_n) vertices; one row per n, with the
+    process's peak resident memory after it (sizes run in increasing order, so the row of the
+    largest n holds the peak of the whole benchmark)."""
     rows = []
     for n in (m for m in SIZES if m <= max_n):
         poly = smooth_star(n, seed=n)
@@ -75,6 +87,7 @@ def run(max_n: int = 1000, repeat: int = 1, options: MeshOptions | None = None) 
                 "max": result.quality.max_angle,
                 "n_used": result.pieces[0].n_used,
                 "min_edge_lfs": result.quality.min_edge_lfs,
+                "peak_mb": peak_rss_mb(),
                 **{f"t_{k}": v for k, v in result.timings.items()},
             }
         )
@@ -855,12 +868,16 @@ def main(argv: list[str] | None = None) -> int:
     rows = run(args.max_n, args.repeat)
     stages = ["conformal", "intervals", "disk", "push_forward", "thin", "verify"]
     head = f"{'n':>5} {'total s':>8} " + " ".join(f"{s[:8]:>8}" for s in stages)
-    print(head + f" {'quads':>9} {'quads/n':>8} {'angles':>16} {'n_used':>6} {'min edge/lfs':>12}")
+    print(
+        head + f" {'quads':>9} {'quads/n':>8} {'angles':>16} {'n_used':>6} {'min edge/lfs':>12}"
+        f" {'peak MB':>8}"
+    )
     for r in rows:
         st = " ".join(f"{r.get('t_' + s, 0.0):8.2f}" for s in stages)
         print(
             f"{r['n']:5d} {r['total']:8.2f} {st} {r['quads']:9d} {r['quads'] / r['n']:8.0f} "
             f"[{r['min']:6.2f},{r['max']:6.2f}] {r['n_used']:6d} {r['min_edge_lfs']:12.3g}"
+            f" {r['peak_mb']:8.0f}"
         )
     if len(rows) >= 3:
         ns = [r["n"] for r in rows[1:]]

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .arcs import best_rotation, piece_intervals
+from .disk.assembly import KIND_NAMES
 from .errors import ConformalMapError, DiskConstructionError, QuadmeshError
 from .geometry import quad_angles_deg
 from .progress import span
@@ -449,8 +450,10 @@ def collect_angle_faults(
     tol = angle_tol(image, disk.quads)[:, None]
     out = (ang < ANGLE_MIN - tol) | (ang > ANGLE_MAX + tol)
     refuse_degenerate(pd, ang)
-    for kind in np.unique(disk.kind[out.any(axis=1)]):
-        sel = ang[disk.kind == kind]
+    code = disk.kind_code
+    for c in np.unique(code[out.any(axis=1)]):
+        kind = KIND_NAMES[c]
+        sel = ang[code == c]
         lo, hi = float(sel.min()), float(sel.max())
-        old = bad_kind.get(str(kind), (ANGLE_MIN, ANGLE_MAX, pd.index))
-        bad_kind[str(kind)] = (min(lo, old[0]), max(hi, old[1]), pd.index)
+        old = bad_kind.get(kind, (ANGLE_MIN, ANGLE_MAX, pd.index))
+        bad_kind[kind] = (min(lo, old[0]), max(hi, old[1]), pd.index)

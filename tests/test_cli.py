@@ -169,6 +169,9 @@ def test_bench_command_prints_rows(capsys) -> None:
     fields = row[0].split()
     quads, per_vertex = int(fields[8]), float(fields[9])
     assert quads > 0 and per_vertex == pytest.approx(quads / 10, abs=1)
+    # the last column: the process's peak resident memory in MB (an interpreter with numpy,
+    # scipy and shapely loaded holds tens of MB at least)
+    assert "peak MB" in out and 20 < float(fields[-1]) < 100_000
 
 
 def test_info_lists_corridors(capsys):

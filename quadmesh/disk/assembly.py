@@ -92,7 +92,10 @@ class DiskMesh:
     Attributes:
         vertices: (V,) complex; ideal vertices have ``|z| = 1`` exactly.
         quads: (Q, 4) int, counter-clockwise.
-        kind: (Q,) str, ``"pentagon"``, ``"carleson_quadrilateral"`` or ``"carleson_triangle"``.
+        kind_code: (Q,) uint8, index into :data:`KIND_NAMES` (one byte a quad; the strings
+            would take 88).
+        kind (property): (Q,) str, ``"pentagon"``, ``"carleson_quadrilateral"`` or
+            ``"carleson_triangle"``, decoded from ``kind_code`` on each access.
         inner: (Q,) bool, quad inside an inner triangle ``T_i``.
         piece: (Q,) int, index of the piece: pentagons ``0..T-1``, then the quadrilaterals in
             ``pieces.quads`` order, then the triangles.
@@ -117,7 +120,7 @@ class DiskMesh:
 
     vertices: NDArray[np.complex128]
     quads: NDArray[np.int64]
-    kind: NDArray[np.str_]
+    kind_code: NDArray[np.uint8]
     inner: NDArray[np.bool_]
     piece: NDArray[np.int64]
     pieces: RegionW
@@ -146,6 +149,11 @@ class DiskMesh:
         zc = f + vo[on]
         vo[on] = (zc / np.abs(zc) - f).astype(np.complex128)
         return vf, vo
+
+    @property
+    def kind(self) -> NDArray[np.str_]:
+        """(Q,) str, the kind of each quad (:data:`KIND_NAMES` decoded from ``kind_code``)."""
+        return np.asarray(KIND_NAMES)[self.kind_code]
 
     @property
     def vertex_frame(self) -> NDArray[np.int64]:
@@ -468,7 +476,9 @@ def disk_mesh(
         [pent_quads.reshape(-1, 4), cq_quads.reshape(-1, 4), tri_quads.reshape(-1, 4)]
     )
     nq_p, nq_c, nq_t = PM.n_quads, CQ.n_quads, len(TM.quads)
-    kind = np.repeat(np.array(KIND_NAMES), [T * nq_p, Qc * nq_c, Tr * nq_t])
+    kind_code = np.repeat(
+        np.arange(len(KIND_NAMES), dtype=np.uint8), [T * nq_p, Qc * nq_c, Tr * nq_t]
+    )
     inner = np.concatenate(
         [np.zeros(T * nq_p + Qc * nq_c, bool), np.tile(np.asarray(TM.inner, bool), Tr)]
     )
@@ -531,7 +541,7 @@ def disk_mesh(
     return DiskMesh(
         vertices=verts,
         quads=quads,
-        kind=kind,
+        kind_code=kind_code,
         inner=inner,
         piece=piece,
         pieces=R,
