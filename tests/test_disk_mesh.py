@@ -81,6 +81,8 @@ def test_quad_counts(mesh: DiskMesh) -> None:
     assert np.sum(mesh.kind == "carleson_quadrilateral") == len(R.quads) * 2 * n * (M + 1)
     assert np.sum(mesh.kind == "carleson_triangle") == len(R.triangles) * tri_q
     assert np.all(np.bincount(mesh.piece) > 0)
+    # one byte per quad is stored; the names are decoded from it
+    assert mesh.kind_code.dtype == np.uint8 and mesh.kind_code.shape == (len(mesh.quads),)
 
 
 def test_triangle_maps(mesh: DiskMesh) -> None:
