@@ -177,9 +177,10 @@ def piece_intervals(
 
 
 #: Largest number of arcs I_j for which :func:`best_rotation` tries several rotations: each
-#: trial chooses the arcs and builds W again (~30–60 ms for m ≤ 16), and the gain shrinks as m
-#: grows (the J_j's fits average out: −1 to −4 % for m = 30); and the smallest prevertex gap
-#: (radians) for which it rotates at all (a rotated point carries a ~1e-16 rounding error).
+#: trial chooses the arcs and finds Lemma 2.2's cover again (~10–20 ms for m ≤ 16), and the
+#: gain shrinks as m grows (the J_j's fits average out: −1 to −4 % for m = 30); and the
+#: smallest prevertex gap (radians) for which it rotates at all (a rotated point carries a
+#: ~1e-16 rounding error).
 ROTATION_MAX_ARCS = 16
 ROTATION_MIN_GAP = 1e-6
 #: Offset of J_j's centre from its core's centre, relative to J_j's half-width φ, above which the
@@ -225,10 +226,14 @@ def best_rotation(
     conformal collar (measured on the triangle and the L-shape: 22 of 22 cores predicted),
     which costs about as many quads as ROTATION_COLLAR_COST cover arcs. ψ = 2π/5·k/R
     (k < R = options.rotations) are tried and the one with the smallest cover arcs +
-    ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ). Returns ψ, the arcs
-    I_j and their owners for θ + ψ (:func:`piece_intervals`; ``name`` as there).
+    ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ) among those for which
+    the arcs fit and W builds (:func:`quadmesh.disk.build_region` raises no
+    DiskConstructionError); if none does, ψ = 0. The costs come from
+    :func:`quadmesh.disk.region.cover_count` (Lemma 2.2's cover without W's pieces), and W is
+    built in full only for the cheapest rotations, in order of cost, until one builds. Returns
+    ψ, the arcs I_j and their owners for θ + ψ (:func:`piece_intervals`; ``name`` as there).
     """
-    from .disk import build_region
+    from .disk.region import build_region, cover_count
 
     two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
@@ -239,23 +244,31 @@ def best_rotation(
     prv, _ = _arc_gaps(np.sort(theta))
     if prv.min() < ROTATION_MIN_GAP:
         return 0.0, *first
-    best: tuple[int, float, tuple] | None = None
+    # the cost of every rotation from Lemma 2.2's cover alone (cover_count: W's pentagons and
+    # Carleson pieces do not change it) ...
+    trials: list[tuple[int, int, float, tuple]] = []
     for k in range(count):
         psi = two_pi / 5 * k / count
         try:
-            with span(k / count, (k + 1) / count):
+            with span(0.9 * k / count, 0.9 * (k + 1) / count):
                 got = (
                     first
                     if k == 0
                     else piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
                 )
-                cover = len(build_region(got[0], A=options.lemma_A).cover)
+                cover = cover_count(got[0], A=options.lemma_A)
         except DiskConstructionError:
             continue
         th = np.mod(theta + psi, two_pi)
         cost = cover + ROTATION_COLLAR_COST * _off_centre_cores(th, stretches, *got, options)
-        if best is None or cost < best[0]:
-            best = (cost, psi, got)
-    if best is None:  # no rotation builds W: let the caller report the unrotated failure
-        return 0.0, *first
-    return best[1], *best[2]
+        trials.append((cost, k, psi, got))
+    # ... then the cheapest one (ties: the smallest ψ) whose W builds completely
+    trials.sort(key=lambda t: t[:2])
+    with span(0.9, 1.0):
+        for _, _, psi, got in trials:
+            try:
+                build_region(got[0], A=options.lemma_A)
+            except DiskConstructionError:
+                continue
+            return float(psi), *got
+    return 0.0, *first  # no rotation builds W: let the caller report the unrotated failure

@@ -351,19 +351,51 @@ class _ArcTable:
 
 
 # --------------------------------------------------------------------------- Lemma 2.2
-def build_region(intervals: ArrayLike, A: float) -> RegionW:
-    """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
+def _tile_cap(m: int) -> int:
+    """Most tiles a growth of :func:`build_region` may reach for m arcs (Lemma 2.3: O(m)
+    tiles, about 12 per interval measured)."""
+    return 20000 + 5000 * m
 
-    Args:
-        intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
-        A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
-            shorter than π.
 
-    Raises:
-        DiskConstructionError: naming the violated hypothesis, if some ``√A·|I_j|`` is below
-            the float64 resolution limit :data:`MIN_EXPANDED_ARC`, or if the construction
-            fails (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
+@dataclass(frozen=True, eq=False)
+class _CoverStage:
+    """Steps 1–3 of Lemma 2.2 (module docstring): the chains about the ``J_j`` and the
+    overlap-≤2 cover, i.e. everything :func:`build_region` computes before the pentagons.
+
+    ``iv``: the validated arcs (longdouble); ``J``/``Jl``/``Jr``: (m, 2) longdouble arcs in
+    input order; ``ratio``: |J_j| / |√A I_j|; ``g0``/``Pl``/``Pr``: the tiles ``P0``, ``P_l``,
+    ``P_r`` of every chain; ``cover``/``cover_ld``: the cover arcs in circular order (float64
+    objects, and their (C, 2) longdouble ``(start, length)``).
     """
+
+    iv: NDArray[np.longdouble]
+    J: NDArray[np.longdouble]
+    Jl: NDArray[np.longdouble]
+    Jr: NDArray[np.longdouble]
+    ratio: NDArray[np.longdouble]
+    g0: Isometry
+    Pl: Isometry
+    Pr: Isometry
+    cover: tuple[CoverArc, ...]
+    cover_ld: NDArray[np.longdouble]
+
+
+def cover_count(intervals: ArrayLike, A: float) -> int:
+    """Number of arcs of Lemma 2.2's overlap-≤2 cover of T for the arcs ``intervals``:
+    ``len(build_region(intervals, A).cover)`` without building the pentagons and the Carleson
+    pieces (steps 1–3 of the module docstring only, shared with :func:`build_region`).
+
+    Raises DiskConstructionError where :func:`build_region` does in those steps; it can
+    still fail afterwards (a cover geodesic carrying no pentagon edge, or the boundary edges
+    of consecutive cover arcs not meeting), which this count does not check.
+    """
+    return len(_cover_stage(intervals, A).cover)
+
+
+def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
+    """Steps 1–3 of Lemma 2.2: validate the arcs, find the ``J_j`` (Lemma 2.1) and their
+    pentagon chains, grow the candidate K arcs and choose the cover greedily (see
+    :class:`_CoverStage`; errors as :func:`build_region`)."""
     iv = _validate(intervals, A)
     m = iv.shape[0]
     sq = np.sqrt(np.longdouble(A))
@@ -460,7 +492,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         inside = (rel > 0.0) & (rel + ell < gap_len[i])
         return np.where(inside, i, -1)
 
-    cap = 20000 + 5000 * m  # Lemma 2.3: O(m) tiles (about 12 per interval measured)
+    cap = _tile_cap(m)
     cand_s: list[NDArray[np.float64]] = []
     cand_l: list[NDArray[np.float64]] = []
 
@@ -534,6 +566,27 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         triple = _arcs_intersect(xs, xl, np.roll(cvs, -1), np.roll(cvl, -1))
         if np.any(triple):
             raise DiskConstructionError(f"triple overlap at cover arc {int(np.argmax(triple))}")
+    return _CoverStage(iv, J, Jl, Jr, ratio, g0, Pl, Pr, tuple(cover), cover_ld)
+
+
+def build_region(intervals: ArrayLike, A: float) -> RegionW:
+    """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
+
+    Args:
+        intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
+        A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
+            shorter than π.
+
+    Raises:
+        DiskConstructionError: naming the violated hypothesis, if some ``√A·|I_j|`` is below
+            the float64 resolution limit :data:`MIN_EXPANDED_ARC`, or if the construction
+            fails (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
+    """
+    st = _cover_stage(intervals, A)
+    iv, J, Jl, Jr, ratio = st.iv, st.J, st.Jl, st.Jr, st.ratio
+    g0, Pl, Pr, cover, cover_ld = st.g0, st.Pl, st.Pr, st.cover, st.cover_ld
+    m, C = iv.shape[0], len(cover)
+    cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
 
     # ---- pentagons: tiles not below any cover geodesic
     cover_table = _ArcTable(cvs, cvl)
@@ -545,7 +598,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         np.concatenate([Pl.M, g0.M, Pr.M]), np.concatenate([Pl.sigma, g0.sigma, Pr.sigma])
     )
     checkpoint(0.8)
-    tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=cap)
+    tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=_tile_cap(m))
     checkpoint(0.9)
     chain_tiles = seed_idx.reshape(3, m).T.copy()
 
@@ -677,7 +730,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         Jl=Jl.astype(float),
         Jr=Jr.astype(float),
         gamma=gamma.astype(np.complex128),
-        cover=tuple(cover),
+        cover=cover,
         crossings=crossings,
         tiles=tiles,
         tile_neighbour=nbr,
