@@ -146,11 +146,16 @@ def test_minimal_arc_rejects_huge_arc() -> None:
         minimal_containing_arc(np.array([0.0]), np.array([3.0]))
 
 
-def test_tileset_batch_dedup_is_scale_invariant() -> None:
+@pytest.mark.parametrize("all_pairs", [0, 4096])
+def test_tileset_batch_dedup_is_scale_invariant(
+    all_pairs: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """add_batch merges repeats (within the batch and against stored tiles) at any scale and
-    keeps distinct tiles apart, also for tiles of Euclidean size 1e-11 near T."""
+    keeps distinct tiles apart, also for tiles of Euclidean size 1e-11 near T (through the
+    bins, and comparing all pairs)."""
     from quadmesh.disk.tessellation import TileSet
 
+    monkeypatch.setattr(TileSet, "_ALL_PAIRS", all_pairs)
     for r in (0.0, 0.9, 1.0 - 1e-11):
         c = r * np.exp(0.7j)
         g = locate(np.array([c]))
@@ -168,6 +173,21 @@ def test_tileset_batch_dedup_is_scale_invariant() -> None:
         assert new.tolist() == [False, True, True, False, True]
         assert len(ts) == 5
         assert ts.find(complex(z[4])) == 4
+
+
+def test_tileset_all_pairs_same_tiles_as_bins(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Comparing every pair of tiles (small sets) and looking them up in the bins (large ones)
+    store the same tiles in the same order with the same neighbours."""
+    from quadmesh.disk.tessellation import TileSet
+
+    out = []
+    for all_pairs in (0, 10**9):
+        monkeypatch.setattr(TileSet, "_ALL_PAIRS", all_pairs)
+        out.append(generate_tiles(depth=6))
+    (t0, n0), (t1, n1) = out
+    assert len(t0) > 1000
+    assert np.array_equal(t0.M, t1.M) and np.array_equal(t0.sigma, t1.sigma)
+    assert np.array_equal(n0, n1)
 
 
 def test_generate_tiles_neighbours_are_mutual() -> None:

@@ -404,6 +404,11 @@ class TileSet:
     """
 
     _R_SWITCH = 0.6  # Cartesian bins inside this radius, (level, angle) bins outside
+    #: Up to this many (stored or earlier tile, queried tile) pairs a lookup tests every pair
+    #: with :meth:`_close` instead of going through the bins: the same answer (the bins only
+    #: narrow the pairs down), and for the few dozen tiles of a small region W the distances
+    #: cost less than the bins' numpy bookkeeping.
+    _ALL_PAIRS = 4096
     _CART = np.int64(127) << np.int64(56)  # key prefix of the Cartesian bins
     _AI_OFF = np.int64(1) << np.int64(55)  # offset making angular bin numbers non-negative
 
@@ -416,6 +421,7 @@ class TileSet:
         self._q = np.zeros(0, dtype=np.float64)
         self._keys_sorted = np.zeros(0, dtype=np.int64)
         self._key_owner = np.zeros(0, dtype=np.int64)
+        self._n_keyed = 0  # the bins hold tiles 0.._n_keyed-1 (filled when first needed)
 
     def __len__(self) -> int:
         return int(self._centers.size)
@@ -535,12 +541,33 @@ class TileSet:
         within = np.arange(qp.size) - np.repeat(np.cumsum(cnt) - cnt, cnt)
         return qp, first + within
 
+    def _bin_all(self) -> None:
+        """Put the tiles not yet in the bins into them."""
+        n = len(self)
+        if self._n_keyed == n:
+            return
+        keys = np.concatenate(
+            [self._keys_sorted, self._own_keys(self._hi[self._n_keyed :], self._q[self._n_keyed :])]
+        )
+        owner = np.concatenate([self._key_owner, np.arange(self._n_keyed, n, dtype=np.int64)])
+        o = np.argsort(keys, kind="stable")
+        self._keys_sorted, self._key_owner = keys[o], owner[o]
+        self._n_keyed = n
+
     def _lookup(
         self, hi: NDArray[np.complex128], lo: NDArray[np.complex128], q: NDArray[np.float64]
     ) -> NDArray[np.int64]:
         out = np.full(hi.shape, -1, dtype=np.int64)
         if hi.size == 0 or len(self) == 0:
             return out
+        if len(self) * hi.size <= self._ALL_PAIRS:
+            ok = self._close(
+                self._hi[:, None], self._lo[:, None], self._q[:, None], hi[None, :], lo[None, :]
+            )
+            found = ok.any(axis=0)
+            out[found] = np.argmax(ok, axis=0)[found]  # the smallest stored index, as below
+            return out
+        self._bin_all()
         qpt, qkey = self._query_keys(hi, q)
         qp, pos = self._pairs(self._keys_sorted, qpt, qkey)
         cand = self._key_owner[pos]
@@ -581,10 +608,6 @@ class TileSet:
         self._hi = np.concatenate([self._hi, hi])
         self._lo = np.concatenate([self._lo, lo])
         self._q = np.concatenate([self._q, q])
-        keys = np.concatenate([self._keys_sorted, self._own_keys(hi, q)])
-        owner = np.concatenate([self._key_owner, idx])
-        o = np.argsort(keys, kind="stable")
-        self._keys_sorted, self._key_owner = keys[o], owner[o]
         return idx
 
     def add(self, M: NDArray[np.complex128], sigma: bool, z: complex) -> int:
@@ -609,14 +632,20 @@ class TileSet:
             return index, new
         ht, lt, qt = hi[todo], lo[todo], q[todo]
         # dedup within the batch: representative = smallest batch position among equals
-        own = self._own_keys(ht, qt)
-        o = np.argsort(own, kind="stable")
-        qpt, qkey = self._query_keys(ht, qt)
-        qp, pos = self._pairs(own[o], qpt, qkey)
-        other = o[pos]
-        ok = (other < qp) & self._close(ht[other], lt[other], qt[other], ht[qp], lt[qp])
         rep = np.arange(todo.size)
-        np.minimum.at(rep, qp[ok], other[ok])
+        if todo.size**2 <= self._ALL_PAIRS:
+            ok = self._close(ht[:, None], lt[:, None], qt[:, None], ht[None, :], lt[None, :])
+            ok &= rep[:, None] < rep[None, :]  # ok[other, qp]
+            found = ok.any(axis=0)
+            rep[found] = np.argmax(ok, axis=0)[found]
+        else:
+            own = self._own_keys(ht, qt)
+            o = np.argsort(own, kind="stable")
+            qpt, qkey = self._query_keys(ht, qt)
+            qp, pos = self._pairs(own[o], qpt, qkey)
+            other = o[pos]
+            ok = (other < qp) & self._close(ht[other], lt[other], qt[other], ht[qp], lt[qp])
+            np.minimum.at(rep, qp[ok], other[ok])
         rep = rep[rep]  # near-identical duplicates: one hop reaches the first occurrence
         is_first = rep == np.arange(todo.size)
         firsts = np.flatnonzero(is_first)
