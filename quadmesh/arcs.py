@@ -33,7 +33,28 @@ def _choose_arcs(
     options: MeshOptions,
     where: Callable[[int], str] | None = None,
 ) -> np.ndarray:
-    """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc).
+    """Arcs I_j for the cores [centre ± half] (:func:`_fit_arcs`), raising
+    DiskConstructionError when no arc fits around some core (``where(j)`` names core j in the
+    user's terms in the message)."""
+    arcs, bad = _fit_arcs(centre, half, gap, options)
+    if np.any(bad):
+        j = int(np.flatnonzero(bad)[0])
+        place = f"the point at {centre[j]:.6f} rad of the circle" if where is None else where(j)
+        raise DiskConstructionError(
+            f"no arc of the disk construction fits around {place} (the conformal map leaves "
+            f"only {gap[j]:.3g} rad of the circle between it and its neighbours): this part of "
+            "the polygon is too crowded there; use fewer, longer edges near it, or widen the "
+            "polygon there"
+        )
+    return arcs
+
+
+def _fit_arcs(
+    centre: np.ndarray, half: np.ndarray, gap: np.ndarray, options: MeshOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc),
+    (m, 2) ``(start, length)``, and where no admissible arc fits (bool (m,); those rows are
+    meaningless). Every core's arc depends on its own centre, half-width and gap only.
 
     The boundary of W over J_j is the geodesic γ_j whose image is the crosscut of the thin
     part around the core (paper §7). Its image is round about the vertex only when J_j is
@@ -48,7 +69,6 @@ def _choose_arcs(
     a slightly shorter arc with the same centre up to 2 %), and the A-fold expansion
     (half-width ≈ √A·φ ≤ g/2) stays clear of the neighbours. Where the residual offset is
     large the conformal collar (:mod:`quadmesh.thin.collar`) straightens the crosscut.
-    ``where(j)`` names core j in the user's terms in the error raised when no arc fits.
     """
     two_pi = 2 * np.pi
     sq = np.sqrt(options.lemma_A)
@@ -74,17 +94,8 @@ def _choose_arcs(
         for q, f in zip(quick, full):
             q[redo[better]] = f[better]
     jc, phi, score = quick
-    if np.any(score >= 10.0):
-        j = int(np.flatnonzero(score >= 10.0)[0])
-        place = f"the point at {centre[j]:.6f} rad of the circle" if where is None else where(j)
-        raise DiskConstructionError(
-            f"no arc of the disk construction fits around {place} (the conformal map leaves "
-            f"only {gap[j]:.3g} rad of the circle between it and its neighbours): this part of "
-            "the polygon is too crowded there; use fewer, longer edges near it, or widen the "
-            "polygon there"
-        )
     half_i = phi / (1.02 * sq)
-    return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i])
+    return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i]), score >= 10.0
 
 
 def _candidate_arcs(
@@ -143,6 +154,16 @@ def piece_intervals(
     ("crosscut", stretch index). ``name(owner)`` says such an owner in the user's terms (for
     the message raised when no arc fits around it).
     """
+    centre, half, gap, owners = _piece_cores(theta, stretches)
+    where = None if name is None else (lambda j: name(owners[j]))
+    return _choose_arcs(centre, half, gap, options, where), owners
+
+
+def _piece_cores(
+    theta: np.ndarray, stretches: list[tuple[int, int]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[str, int]]]:
+    """The cores of :func:`piece_intervals`' arcs in boundary order: centre, half-width and gap
+    to the neighbouring cores (radians), and the owners."""
     k = theta.size
     two_pi = 2 * np.pi
     owner = np.full(k, -1)
@@ -170,10 +191,35 @@ def piece_intervals(
     after = np.mod(np.roll(lo_s, -1) - hi_s, two_pi)
     gap = np.empty_like(before)
     gap[order] = np.minimum(before, after)
-    owners = [c[2] for c in cores]
-    where = None if name is None else (lambda j: name(owners[j]))
-    arcs = _choose_arcs(centre, half, gap, options, where)
-    return arcs, owners
+    return centre, half, gap, [c[2] for c in cores]
+
+
+def _rotated_intervals(
+    theta: np.ndarray,
+    stretches: list[tuple[int, int]],
+    options: MeshOptions,
+    psis: np.ndarray,
+) -> list[tuple[np.ndarray, list[tuple[str, int]]] | None]:
+    """:func:`piece_intervals` for the prevertices θ + ψ of every rotation ψ, None where no arc
+    fits. The cores of all rotations go through one :func:`_fit_arcs` (one arc search instead
+    of one per rotation: the same arcs, since each core's arc depends on that core alone)."""
+    two_pi = 2 * np.pi
+    cores = [_piece_cores(np.mod(theta + psi, two_pi), stretches) for psi in psis]
+    try:
+        arcs, bad = _fit_arcs(*(np.concatenate([c[i] for c in cores]) for i in range(3)), options)
+    except DiskConstructionError:  # one rotation's search failed: try them one by one
+        out: list[tuple[np.ndarray, list[tuple[str, int]]] | None] = []
+        for psi in psis:
+            try:
+                out.append(piece_intervals(np.mod(theta + psi, two_pi), stretches, options))
+            except DiskConstructionError:
+                out.append(None)
+        return out
+    ends = np.cumsum([c[0].size for c in cores])
+    return [
+        None if b.any() else (a, c[3])
+        for a, b, c in zip(np.split(arcs, ends[:-1]), np.split(bad, ends[:-1]), cores)
+    ]
 
 
 #: Largest number of arcs I_j for which :func:`best_rotation` tries several rotations: each
@@ -246,16 +292,15 @@ def best_rotation(
         return 0.0, *first
     # the cost of every rotation from Lemma 2.2's cover alone (cover_count: W's pentagons and
     # Carleson pieces do not change it) ...
+    psis = two_pi / 5 * np.arange(count) / count
+    with span(1.0 / count, 0.3):
+        rotated = [first, *_rotated_intervals(theta, stretches, options, psis[1:])]
     trials: list[tuple[int, int, float, tuple]] = []
-    for k in range(count):
-        psi = two_pi / 5 * k / count
+    for k, (psi, got) in enumerate(zip(psis, rotated)):
+        if got is None:
+            continue
         try:
-            with span(0.9 * k / count, 0.9 * (k + 1) / count):
-                got = (
-                    first
-                    if k == 0
-                    else piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
-                )
+            with span(0.3 + 0.6 * k / count, 0.3 + 0.6 * (k + 1) / count):
                 cover = cover_count(got[0], A=options.lemma_A)
         except DiskConstructionError:
             continue
