@@ -351,6 +351,53 @@ class _ArcTable:
 
 
 # --------------------------------------------------------------------------- Lemma 2.2
+def _greedy_chain(
+    rs: NDArray[np.longdouble],
+    re: NDArray[np.longdouble],
+    ell: NDArray[np.longdouble],
+    r0: np.longdouble,
+    q: np.longdouble,
+    after: int,
+) -> list[int]:
+    """The K arcs of Lemma 2.2's cover in one gap of F (step 3 of the module docstring), as
+    indices into the candidate arcs ``(rs, re)`` (positions relative to the gap, lengths
+    ``ell``): from the point ``r0`` on, the candidate that contains the current point (``rs <
+    r < re``) and reaches furthest (ties: the longer, then the first) is taken and its end
+    becomes the current point, until the point passes ``q``.
+
+    The candidates with ``rs < r`` are a prefix of the candidates sorted by start, so the one
+    taken is the best-ranked in that prefix (if it contains ``r`` at all): every candidate's
+    successor is found at once (searchsorted on prefix minima of the ranks) and the chain is
+    followed from ``r0``. Raises DiskConstructionError (naming the gap ``after`` arc) if no
+    candidate contains the current point.
+    """
+    n = rs.size
+    rank_order = np.lexsort((-ell, -re))  # the best candidate first
+    rank = np.empty(n, dtype=np.int64)
+    rank[rank_order] = np.arange(n)
+    by_start = np.argsort(rs, kind="stable")
+    pts = np.append(re, r0)  # the points a chain can be at: candidate ends, and r0
+    before = np.searchsorted(rs[by_start], pts, side="left")  # how many start before each
+    succ = np.full(n + 1, -1, dtype=np.int64)
+    has = before > 0
+    if n:
+        best = rank_order[np.minimum.accumulate(rank[by_start])[before[has] - 1]]
+        succ[np.flatnonzero(has)] = np.where(re[best] > pts[has], best, -1)
+    chain: list[int] = []
+    r, i = r0, succ[n]
+    while r <= q:
+        if i < 0:
+            raise DiskConstructionError(
+                f"cover construction failed in the gap after arc {after}: no tessellation arc "
+                "inside the gap contains the current point"
+            )
+        chain.append(int(i))
+        r, i = re[i], succ[i]
+        if len(chain) > 100000:
+            raise DiskConstructionError("cover construction did not terminate")
+    return chain
+
+
 def _tile_cap(m: int) -> int:
     """Most tiles a growth of :func:`build_region` may reach for m arcs (Lemma 2.3: O(m)
     tiles, about 12 per interval measured)."""
@@ -364,8 +411,9 @@ class _CoverStage:
 
     ``iv``: the validated arcs (longdouble); ``J``/``Jl``/``Jr``: (m, 2) longdouble arcs in
     input order; ``ratio``: |J_j| / |√A I_j|; ``g0``/``Pl``/``Pr``: the tiles ``P0``, ``P_l``,
-    ``P_r`` of every chain; ``cover``/``cover_ld``: the cover arcs in circular order (float64
-    objects, and their (C, 2) longdouble ``(start, length)``).
+    ``P_r`` of every chain; ``kinds``/``owner``/``cover_ld``: the cover arcs in circular order
+    (the ``kind`` and ``interval`` of their :class:`CoverArc`, and their (C, 2) longdouble
+    ``(start, length)``).
     """
 
     iv: NDArray[np.longdouble]
@@ -376,7 +424,8 @@ class _CoverStage:
     g0: Isometry
     Pl: Isometry
     Pr: Isometry
-    cover: tuple[CoverArc, ...]
+    kinds: list[str]
+    owner: list[int]
     cover_ld: NDArray[np.longdouble]
 
 
@@ -389,7 +438,7 @@ def cover_count(intervals: ArrayLike, A: float) -> int:
     still fail afterwards (a cover geodesic carrying no pentagon edge, or the boundary edges
     of consecutive cover arcs not meeting), which this count does not check.
     """
-    return len(_cover_stage(intervals, A).cover)
+    return len(_cover_stage(intervals, A).kinds)
 
 
 def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
@@ -519,11 +568,13 @@ def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
     cgap = gap_of(cs, cl)
 
     # ---- greedy overlap-≤2 cover in circular order
-    cover: list[CoverArc] = []
+    kinds: list[str] = []
+    owner: list[int] = []
     cov_ld: list[tuple[np.longdouble, np.longdouble]] = []
 
     def add_cover(kind: str, j: int, start: np.longdouble, length: np.longdouble) -> None:
-        cover.append(CoverArc(kind, j, float(start), float(length)))
+        kinds.append(kind)
+        owner.append(j)
         cov_ld.append((start, length))
 
     cg_order = np.argsort(cgap, kind="stable")
@@ -540,21 +591,9 @@ def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
         re = rs + cl[sel]
         r_ = (Jr[k, 0] + Jr[k, 1] - Je[pos]) % TWO_PI_LD
         q_ = (Jl[nxt, 0] - Je[pos]) % TWO_PI_LD
-        steps = 0
-        while r_ <= q_:
-            ok = (rs < r_) & (r_ < re)
-            if not np.any(ok):
-                raise DiskConstructionError(
-                    f"cover construction failed in the gap after arc {k}: no tessellation arc "
-                    "inside the gap contains the current point"
-                )
-            best = np.flatnonzero(ok)[np.lexsort((-cl[sel][ok], -re[ok]))[0]]
+        for best in _greedy_chain(rs, re, cl[sel], r_, q_, int(k)):
             add_cover(KIND_K, -1, np.mod(Je[pos] + rs[best], TWO_PI_LD), cl[sel][best])
-            r_ = re[best]
-            steps += 1
-            if steps > 100000:
-                raise DiskConstructionError("cover construction did not terminate")
-    C = len(cover)
+    C = len(kinds)
     cover_ld = np.array(cov_ld, dtype=np.longdouble).reshape(C, 2)
     cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
     xs, xl = np.roll(cvs, 1), np.roll(cvl, 1)
@@ -566,7 +605,7 @@ def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
         triple = _arcs_intersect(xs, xl, np.roll(cvs, -1), np.roll(cvl, -1))
         if np.any(triple):
             raise DiskConstructionError(f"triple overlap at cover arc {int(np.argmax(triple))}")
-    return _CoverStage(iv, J, Jl, Jr, ratio, g0, Pl, Pr, tuple(cover), cover_ld)
+    return _CoverStage(iv, J, Jl, Jr, ratio, g0, Pl, Pr, kinds, owner, cover_ld)
 
 
 def build_region(intervals: ArrayLike, A: float) -> RegionW:
@@ -584,9 +623,13 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
     """
     st = _cover_stage(intervals, A)
     iv, J, Jl, Jr, ratio = st.iv, st.J, st.Jl, st.Jr, st.ratio
-    g0, Pl, Pr, cover, cover_ld = st.g0, st.Pl, st.Pr, st.cover, st.cover_ld
-    m, C = iv.shape[0], len(cover)
+    g0, Pl, Pr, cover_ld = st.g0, st.Pl, st.Pr, st.cover_ld
+    m, C = iv.shape[0], len(st.kinds)
     cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
+    cover = tuple(
+        CoverArc(kind, j, float(a), float(b))
+        for kind, j, (a, b) in zip(st.kinds, st.owner, cover_ld)
+    )
 
     # ---- pentagons: tiles not below any cover geodesic
     cover_table = _ArcTable(cvs, cvl)
