@@ -112,6 +112,8 @@ EDGE_FAR_START_LD: NDArray[np.clongdouble] = _DIR_LD * np.exp(-1j * _HALF)
 EDGE_FAR_END_LD: NDArray[np.clongdouble] = _DIR_LD * np.exp(1j * _HALF)
 """Ideal endpoints where the far arcs of P0's edges end, extended precision."""
 
+_EDGE_FAR_ENDS_LD = np.concatenate([EDGE_FAR_START_LD, EDGE_FAR_END_LD])
+
 P0_VERTICES: NDArray[np.complex128] = P0_VERTICES_LD.astype(np.complex128)
 """Vertices ``V_k`` of the central pentagon P0 (edge ``k`` runs from ``V_k`` to ``V_{k+1}``)."""
 EDGE_MIDPOINTS: NDArray[np.complex128] = EDGE_MIDPOINTS_LD.astype(np.complex128)
@@ -207,8 +209,7 @@ def tile_edge_far_arcs(
     The far arc of edge ``k`` of tile ``g`` is ``g`` of P0's far arc; an orientation-reversing
     ``g`` swaps its ends.  Extended-precision tiles give longdouble arcs.
     """
-    a = tiles.apply_rows(EDGE_FAR_START_LD)
-    b = tiles.apply_rows(EDGE_FAR_END_LD)
+    a, b = np.split(tiles.apply_rows(_EDGE_FAR_ENDS_LD), 2, axis=1)  # starts, ends
     rev = tiles.sigma[:, None]
     first = np.where(rev, b, a)
     last = np.where(rev, a, b)
