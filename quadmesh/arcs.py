@@ -281,11 +281,12 @@ def best_rotation(
     ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ) among those for which
     the arcs fit and W builds (:func:`quadmesh.disk.build_region` raises no
     DiskConstructionError); if none does, ψ = 0. The costs come from
-    :func:`quadmesh.disk.region.cover_count` (Lemma 2.2's cover without W's pieces), and W is
-    built in full only for the cheapest rotations, in order of cost, until one builds. Returns
-    ψ, the arcs I_j and their owners for θ + ψ (:func:`piece_intervals`; ``name`` as there).
+    :func:`quadmesh.disk.region.cover_counts` (Lemma 2.2's cover without W's pieces, all
+    rotations at once), and W is built in full only for the cheapest rotations, in order of
+    cost, until one builds. Returns ψ, the arcs I_j and their owners for θ + ψ
+    (:func:`piece_intervals`; ``name`` as there).
     """
-    from .disk.region import build_region, cover_count
+    from .disk.region import build_region, cover_counts
 
     two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
@@ -296,20 +297,19 @@ def best_rotation(
     prv, _ = _arc_gaps(np.sort(theta))
     if prv.min() < ROTATION_MIN_GAP:
         return 0.0, *first
-    # the cost of every rotation from Lemma 2.2's cover alone (cover_count: W's pentagons and
+    # the cost of every rotation from Lemma 2.2's cover alone (cover_counts: W's pentagons and
     # Carleson pieces do not change it) ...
     psis = two_pi / 5 * np.arange(count) / count
     with span(1.0 / count, 0.3):
         rotated = [first, *_rotated_intervals(theta, stretches, options, psis[1:])]
+    fits = [k for k, got in enumerate(rotated) if got is not None]
+    with span(0.3, 0.9):
+        covers = cover_counts([rotated[k][0] for k in fits], A=options.lemma_A)
     trials: list[tuple[int, int, float, tuple]] = []
-    for k, (psi, got) in enumerate(zip(psis, rotated)):
-        if got is None:
+    for k, cover in zip(fits, covers):
+        if cover is None:
             continue
-        try:
-            with span(0.3 + 0.6 * k / count, 0.3 + 0.6 * (k + 1) / count):
-                cover = cover_count(got[0], A=options.lemma_A)
-        except DiskConstructionError:
-            continue
+        psi, got = psis[k], rotated[k]
         th = np.mod(theta + psi, two_pi)
         cost = cover + ROTATION_COLLAR_COST * _off_centre_cores(th, stretches, *got, options)
         trials.append((cost, k, psi, got))

@@ -13,6 +13,7 @@ from quadmesh.disk.region import (
     RegionW,
     build_region,
     cover_count,
+    cover_counts,
     crossing_check,
     in_W,
     piece_membership,
@@ -217,3 +218,26 @@ def test_cover_count_equals_built_cover_on_random_arcs() -> None:
         assert cover_count(iv, A) == len(R.cover), trial
         built += 1
     assert built >= 40
+
+
+def test_cover_counts_of_several_sets_equal_one_at_a_time() -> None:
+    """cover_counts (the sets' searches, chains and growths done together) gives every set the
+    count it has alone, None where that raises (here one set fails in validation, two in the
+    chain checks)."""
+    rng = np.random.default_rng(9)
+    sets = []
+    for _ in range(24):
+        m = int(rng.integers(1, 17))
+        sp = 2.0 * np.pi / m
+        c = np.arange(m) * sp + rng.uniform(-0.3, 0.3, m) * sp + rng.uniform(0, 2 * np.pi)
+        ell = np.exp(rng.uniform(np.log(1e-7), np.log(min(sp, np.pi) / 16.0), m))
+        sets.append(np.column_stack([np.mod(c - ell / 2.0, 2.0 * np.pi), ell]))
+    sets.insert(5, np.array([[1.0, 0.3]]))  # 16-fold longer than π: fails validation
+    alone = []
+    for iv in sets:
+        try:
+            alone.append(cover_count(iv, 16.0))
+        except DiskConstructionError:
+            alone.append(None)
+    assert 0 < sum(a is None for a in alone) < len(sets) // 2
+    assert cover_counts(sets, 16.0) == alone

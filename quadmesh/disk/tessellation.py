@@ -423,6 +423,7 @@ class TileSet:
         self._keys_sorted = np.zeros(0, dtype=np.int64)
         self._key_owner = np.zeros(0, dtype=np.int64)
         self._n_keyed = 0  # the bins hold tiles 0.._n_keyed-1 (filled when first needed)
+        self._group = np.zeros(0, dtype=np.int64)  # tiles of different groups never merge
 
     def __len__(self) -> int:
         return int(self._centers.size)
@@ -556,7 +557,11 @@ class TileSet:
         self._n_keyed = n
 
     def _lookup(
-        self, hi: NDArray[np.complex128], lo: NDArray[np.complex128], q: NDArray[np.float64]
+        self,
+        hi: NDArray[np.complex128],
+        lo: NDArray[np.complex128],
+        q: NDArray[np.float64],
+        group: NDArray[np.int64],
     ) -> NDArray[np.int64]:
         out = np.full(hi.shape, -1, dtype=np.int64)
         if hi.size == 0 or len(self) == 0:
@@ -565,6 +570,7 @@ class TileSet:
             ok = self._close(
                 self._hi[:, None], self._lo[:, None], self._q[:, None], hi[None, :], lo[None, :]
             )
+            ok &= self._group[:, None] == group[None, :]
             found = ok.any(axis=0)
             out[found] = np.argmax(ok, axis=0)[found]  # the smallest stored index, as below
             return out
@@ -573,6 +579,7 @@ class TileSet:
         qp, pos = self._pairs(self._keys_sorted, qpt, qkey)
         cand = self._key_owner[pos]
         ok = self._close(self._hi[cand], self._lo[cand], self._q[cand], hi[qp], lo[qp])
+        ok &= self._group[cand] == group[qp]
         qp, cand = qp[ok], cand[ok]
         # several candidates (only possible for numerically dubious input): take the smallest
         o = np.lexsort((cand, qp))
@@ -586,7 +593,7 @@ class TileSet:
         """Index of the stored tile with centre ``z`` (to 0.3 hyperbolically) for each point,
         or -1 (vectorised)."""
         _, hi, lo, q = self._prep(z)
-        return self._lookup(hi, lo, q)
+        return self._lookup(hi, lo, q, np.zeros(hi.shape, dtype=np.int64))
 
     def find(self, z: complex) -> int:
         """Index of the stored tile whose centre is ``z`` (to 0.3 hyperbolically), or -1."""
@@ -600,6 +607,7 @@ class TileSet:
         hi: NDArray[np.complex128],
         lo: NDArray[np.complex128],
         q: NDArray[np.float64],
+        group: NDArray[np.int64],
     ) -> NDArray[np.int64]:
         n0 = len(self)
         idx = n0 + np.arange(z.size, dtype=np.int64)
@@ -609,34 +617,44 @@ class TileSet:
         self._hi = np.concatenate([self._hi, hi])
         self._lo = np.concatenate([self._lo, lo])
         self._q = np.concatenate([self._q, q])
+        self._group = np.concatenate([self._group, group])
         return idx
 
     def add(self, M: NDArray[np.complex128], sigma: bool, z: complex) -> int:
         """Store a new tile (no duplicate check; use :meth:`find` first) and return its index."""
         zz, hi, lo, q = self._prep(np.array([z]))
-        return int(self._append(M[None], np.array([sigma]), zz, hi, lo, q)[0])
+        return int(
+            self._append(M[None], np.array([sigma]), zz, hi, lo, q, np.zeros(1, np.int64))[0]
+        )
 
     def add_batch(
-        self, M: NDArray, sigma: NDArray[np.bool_], z: ArrayLike
+        self,
+        M: NDArray,
+        sigma: NDArray[np.bool_],
+        z: ArrayLike,
+        group: NDArray[np.int64] | None = None,
     ) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
         """Insert a batch of tiles with centres ``z``, skipping the ones already stored and the
         repeats within the batch (the first occurrence wins, as in a sequential loop).
+        ``group``: per tile, the group it belongs to (default 0); a tile is a repeat only of
+        tiles of its own group, so that several independent regions grow in one set.
 
         Returns ``(index, new)``: the tile index of every batch entry and whether it was added.
         """
         z, hi, lo, q = self._prep(z)
         k = z.size
-        index = self._lookup(hi, lo, q)
+        group = np.zeros(k, dtype=np.int64) if group is None else np.asarray(group, np.int64)
+        index = self._lookup(hi, lo, q, group)
         todo = np.flatnonzero(index < 0)
         new = np.zeros(k, dtype=bool)
         if todo.size == 0:
             return index, new
-        ht, lt, qt = hi[todo], lo[todo], q[todo]
+        ht, lt, qt, gt = hi[todo], lo[todo], q[todo], group[todo]
         # dedup within the batch: representative = smallest batch position among equals
         rep = np.arange(todo.size)
         if todo.size**2 <= self._ALL_PAIRS:
             ok = self._close(ht[:, None], lt[:, None], qt[:, None], ht[None, :], lt[None, :])
-            ok &= rep[:, None] < rep[None, :]  # ok[other, qp]
+            ok &= (rep[:, None] < rep[None, :]) & (gt[:, None] == gt[None, :])  # ok[other, qp]
             found = ok.any(axis=0)
             rep[found] = np.argmax(ok, axis=0)[found]
         else:
@@ -646,12 +664,13 @@ class TileSet:
             qp, pos = self._pairs(own[o], qpt, qkey)
             other = o[pos]
             ok = (other < qp) & self._close(ht[other], lt[other], qt[other], ht[qp], lt[qp])
+            ok &= gt[other] == gt[qp]
             np.minimum.at(rep, qp[ok], other[ok])
         rep = rep[rep]  # near-identical duplicates: one hop reaches the first occurrence
         is_first = rep == np.arange(todo.size)
         firsts = np.flatnonzero(is_first)
         sel = todo[firsts]
-        ids = self._append(M[sel], sigma[sel], z[sel], hi[sel], lo[sel], q[sel])
+        ids = self._append(M[sel], sigma[sel], z[sel], hi[sel], lo[sel], q[sel], group[sel])
         slot = np.full(todo.size, -1, dtype=np.int64)
         slot[firsts] = ids
         index[todo] = slot[rep]
@@ -663,17 +682,23 @@ class TileSet:
         return Isometry(self._M.copy(), self._sigma.copy())
 
 
-def _add_tiles(ts: TileSet, g: Isometry) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """Store the tiles ``g`` (stacked) in ``ts`` keyed by their centres ``g(0)``; returns
-    :meth:`TileSet.add_batch`'s ``(index, new)``."""
-    return ts.add_batch(g.M, g.sigma, g.apply_rows(np.zeros(1))[:, 0])
+def _add_tiles(
+    ts: TileSet, g: Isometry, group: NDArray[np.int64] | None = None
+) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Store the tiles ``g`` (stacked; of the groups ``group``) in ``ts`` keyed by their centres
+    ``g(0)``; returns :meth:`TileSet.add_batch`'s ``(index, new)``."""
+    return ts.add_batch(g.M, g.sigma, g.apply_rows(np.zeros(1))[:, 0], group)
 
 
 def _reflect_across_edges(
-    ts: TileSet, g: Isometry, rows: NDArray[np.int64], ks: NDArray[np.int64]
+    ts: TileSet,
+    g: Isometry,
+    rows: NDArray[np.int64],
+    ks: NDArray[np.int64],
+    group: NDArray[np.int64] | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Reflect tile ``g[rows[i]]`` across its edge ``ks[i]`` (the neighbour across that edge of
-    the T5 tessellation, §2) and store the images in ``ts``.
+    the T5 tessellation, §2) and store the images in ``ts`` (in the groups ``group[rows]``).
 
     Returns ``neighbour`` (len(g), 5): the tile index across each reflected edge, -1 elsewhere;
     and the indices of the tiles that were new.
@@ -681,16 +706,26 @@ def _reflect_across_edges(
     nbr = np.full((len(g), 5), -1, dtype=np.int64)
     if rows.size == 0:
         return nbr, np.zeros(0, dtype=np.int64)
-    t, is_new = _add_tiles(ts, Isometry(*_times_reflections(g.M[rows], g.sigma[rows], ks)))
+    t, is_new = _add_tiles(
+        ts,
+        Isometry(*_times_reflections(g.M[rows], g.sigma[rows], ks)),
+        None if group is None else group[rows],
+    )
     nbr[rows, ks] = t
     return nbr, t[is_new]
 
 
 StopRule = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.int64]]
+GroupStopRule = Callable[
+    [NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]], NDArray[np.int64]
+]
 
 
 def grow_tiles(
-    seeds: Isometry, stop: StopRule, max_tiles: int = 2_000_000
+    seeds: Isometry,
+    stop: StopRule | GroupStopRule,
+    max_tiles: int = 2_000_000,
+    groups: NDArray[np.int64] | None = None,
 ) -> tuple[Isometry, NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
     """Breadth-first growth of a region of tiles by reflection.
 
@@ -699,9 +734,15 @@ def grow_tiles(
     if it may.  Returns the tiles (stacked isometries), ``neighbour`` (T, 5): the index of the
     tile across each edge or -1, ``label`` (T, 5): the stop label of each edge or -1, and
     ``seed_index`` (len(seeds),): the tile index of every seed.
+
+    With ``groups`` (per seed), independent regions grow together, level by level: a tile
+    belongs to the group of the seed it grew from, tiles of different groups are never merged,
+    and ``stop(start, length, group)`` also receives the group of every edge.  Each region
+    gets the tiles, in the same order, and the stop calls on its edges, in the same order, as
+    when grown alone (``max_tiles`` then bounds all groups together).
     """
     ts = TileSet()
-    seed_index, is_new = _add_tiles(ts, seeds)
+    seed_index, is_new = _add_tiles(ts, seeds, groups)
     frontier = np.unique(seed_index[is_new])
     nbr_rows: list[NDArray[np.int64]] = []
     lab_rows: list[NDArray[np.int64]] = []
@@ -710,9 +751,14 @@ def grow_tiles(
         checkpoint()
         g = Isometry(ts._M[frontier], ts._sigma[frontier])
         s, ell = tile_edge_far_arcs(g)
-        lab = stop(s.ravel(), ell.ravel()).reshape(-1, 5)
+        if groups is None:
+            lab = stop(s.ravel(), ell.ravel()).reshape(-1, 5)
+        else:
+            lab = stop(s.ravel(), ell.ravel(), np.repeat(ts._group[frontier], 5)).reshape(-1, 5)
         rows, ks = np.nonzero(lab < 0)
-        nbr, new_frontier = _reflect_across_edges(ts, g, rows, ks)
+        nbr, new_frontier = _reflect_across_edges(
+            ts, g, rows, ks, None if groups is None else ts._group[frontier]
+        )
         nbr_rows.append(nbr)
         lab_rows.append(lab)
         row_of.append(frontier)
