@@ -281,12 +281,12 @@ def best_rotation(
     ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ) among those for which
     the arcs fit and W builds (:func:`quadmesh.disk.build_region` raises no
     DiskConstructionError); if none does, ψ = 0. The costs come from
-    :func:`quadmesh.disk.region.cover_counts` (Lemma 2.2's cover without W's pieces, all
-    rotations at once), and W is built in full only for the cheapest rotations, in order of
-    cost, until one builds. Returns ψ, the arcs I_j and their owners for θ + ψ
+    :func:`quadmesh.disk.region.cover_stages` (Lemma 2.2's cover without W's pieces, all
+    rotations at once), and W is completed only for the cheapest rotations, in order of cost,
+    until one builds. Returns ψ, the arcs I_j and their owners for θ + ψ
     (:func:`piece_intervals`; ``name`` as there).
     """
-    from .disk.region import build_region, cover_counts
+    from .disk.region import CoverStage, build_region, cover_stages
 
     two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
@@ -297,28 +297,28 @@ def best_rotation(
     prv, _ = _arc_gaps(np.sort(theta))
     if prv.min() < ROTATION_MIN_GAP:
         return 0.0, *first
-    # the cost of every rotation from Lemma 2.2's cover alone (cover_counts: W's pentagons and
+    # the cost of every rotation from Lemma 2.2's cover alone (cover_stages: W's pentagons and
     # Carleson pieces do not change it) ...
     psis = two_pi / 5 * np.arange(count) / count
     with span(1.0 / count, 0.3):
         rotated = [first, *_rotated_intervals(theta, stretches, options, psis[1:])]
     fits = [k for k, got in enumerate(rotated) if got is not None]
     with span(0.3, 0.9):
-        covers = cover_counts([rotated[k][0] for k in fits], A=options.lemma_A)
-    trials: list[tuple[int, int, float, tuple]] = []
+        covers = cover_stages([rotated[k][0] for k in fits], A=options.lemma_A)
+    trials: list[tuple[int, int, float, tuple, CoverStage]] = []
     for k, cover in zip(fits, covers):
-        if cover is None:
+        if isinstance(cover, DiskConstructionError):
             continue
         psi, got = psis[k], rotated[k]
         th = np.mod(theta + psi, two_pi)
-        cost = cover + ROTATION_COLLAR_COST * _off_centre_cores(th, stretches, *got, options)
-        trials.append((cost, k, psi, got))
+        off = _off_centre_cores(th, stretches, *got, options)
+        trials.append((cover.count + ROTATION_COLLAR_COST * off, k, psi, got, cover))
     # ... then the cheapest one (ties: the smallest ψ) whose W builds completely
     trials.sort(key=lambda t: t[:2])
     with span(0.9, 1.0):
-        for _, _, psi, got in trials:
+        for _, _, psi, got, cover in trials:
             try:
-                build_region(got[0], A=options.lemma_A)
+                build_region(got[0], A=options.lemma_A, cover=cover)
             except DiskConstructionError:
                 continue
             return float(psi), *got

@@ -65,9 +65,13 @@ __all__ = [
     "CarlesonQuadrilateral",
     "CarlesonTriangle",
     "CoverArc",
+    "CoverStage",
     "RegionW",
     "RightPentagon",
     "build_region",
+    "cover_count",
+    "cover_counts",
+    "cover_stages",
     "crossing_check",
     "in_W",
     "piece_membership",
@@ -405,7 +409,7 @@ def _tile_cap(m: int) -> int:
 
 
 @dataclass(frozen=True, eq=False)
-class _CoverStage:
+class CoverStage:
     """Steps 1–3 of Lemma 2.2 (module docstring): the chains about the ``J_j`` and the
     overlap-≤2 cover, i.e. everything :func:`build_region` computes before the pentagons.
 
@@ -428,6 +432,11 @@ class _CoverStage:
     owner: list[int]
     cover_ld: NDArray[np.longdouble]
 
+    @property
+    def count(self) -> int:
+        """Number of cover arcs."""
+        return len(self.kinds)
+
 
 def cover_count(intervals: ArrayLike, A: float) -> int:
     """Number of arcs of Lemma 2.2's overlap-≤2 cover of T for the arcs ``intervals``:
@@ -438,7 +447,7 @@ def cover_count(intervals: ArrayLike, A: float) -> int:
     still fail afterwards (a cover geodesic carrying no pentagon edge, or the boundary edges
     of consecutive cover arcs not meeting), which this count does not check.
     """
-    return len(_cover_stage(intervals, A).kinds)
+    return _cover_stage(intervals, A).count
 
 
 def cover_counts(interval_sets: list[ArrayLike], A: float) -> list[int | None]:
@@ -446,14 +455,14 @@ def cover_counts(interval_sets: list[ArrayLike], A: float) -> list[int | None]:
     Lemma 2.1 searches, the pentagon chains and the tile growths of all sets run as one
     (vectorised over the sets; each set's cover is the one it has alone)."""
     return [
-        None if isinstance(st, DiskConstructionError) else len(st.kinds)
-        for st in _cover_stages(interval_sets, A)
+        None if isinstance(st, DiskConstructionError) else st.count
+        for st in cover_stages(interval_sets, A)
     ]
 
 
-def _cover_stage(intervals: ArrayLike, A: float) -> _CoverStage:
-    """Steps 1–3 of Lemma 2.2 for one arc set (:func:`_cover_stages`), raising its error."""
-    st = _cover_stages([intervals], A)[0]
+def _cover_stage(intervals: ArrayLike, A: float) -> CoverStage:
+    """Steps 1–3 of Lemma 2.2 for one arc set (:func:`cover_stages`), raising its error."""
+    st = cover_stages([intervals], A)[0]
     if isinstance(st, DiskConstructionError):
         raise st
     return st
@@ -505,12 +514,12 @@ class _GapCandidates:
         return lab
 
 
-def _cover_stages(
+def cover_stages(
     interval_sets: list[ArrayLike], A: float
-) -> list[_CoverStage | DiskConstructionError]:
+) -> list[CoverStage | DiskConstructionError]:
     """Steps 1–3 of Lemma 2.2 for each arc set: validate the arcs, find the ``J_j`` (Lemma
     2.1) and their pentagon chains, grow the candidate K arcs and choose the cover greedily
-    (see :class:`_CoverStage`); per set, its stage or the DiskConstructionError that
+    (see :class:`CoverStage`); per set, its stage or the DiskConstructionError that
     :func:`build_region` raises for it.
 
     The sets are processed together (one Lemma 2.1 search, one point location and one tile
@@ -518,7 +527,7 @@ def _cover_stages(
     fail (its error could not be told apart by set), the sets are done one at a time.
     """
     n_sets = len(interval_sets)
-    out: list[_CoverStage | DiskConstructionError | None] = [None] * n_sets
+    out: list[CoverStage | DiskConstructionError | None] = [None] * n_sets
     ivs: dict[int, NDArray[np.longdouble]] = {}
     for g, intervals in enumerate(interval_sets):
         try:
@@ -536,7 +545,7 @@ def _cover_stages(
             out[live[0]] = exc
         else:
             for g in live:
-                out[g] = _cover_stages([interval_sets[g]], A)[0]
+                out[g] = cover_stages([interval_sets[g]], A)[0]
     return out  # type: ignore[return-value]
 
 
@@ -651,9 +660,9 @@ def _greedy_cover(
 def _chains_and_covers(
     ivs: dict[int, NDArray[np.longdouble]],
     A: float,
-    out: list[_CoverStage | DiskConstructionError | None],
+    out: list[CoverStage | DiskConstructionError | None],
 ) -> None:
-    """The body of :func:`_cover_stages` for the validated sets ``ivs`` (set index → arcs):
+    """The body of :func:`cover_stages` for the validated sets ``ivs`` (set index → arcs):
     fills ``out``; raises DiskConstructionError from the steps shared by the sets."""
     live = list(ivs)
     iv_all = np.concatenate([ivs[g] for g in live])
@@ -741,7 +750,7 @@ def _chains_and_covers(
         except DiskConstructionError as exc:
             out[g] = exc
             continue
-        out[g] = _CoverStage(
+        out[g] = CoverStage(
             ivs[g],
             J_all[sl],
             Jl_all[sl],
@@ -756,20 +765,22 @@ def _chains_and_covers(
         )
 
 
-def build_region(intervals: ArrayLike, A: float) -> RegionW:
+def build_region(intervals: ArrayLike, A: float, cover: CoverStage | None = None) -> RegionW:
     """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
 
     Args:
         intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
         A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
             shorter than π.
+        cover: steps 1–3 (the cover) already done for these intervals and A by
+            :func:`cover_stages`; they are then not done again.
 
     Raises:
         DiskConstructionError: naming the violated hypothesis, if some ``√A·|I_j|`` is below
             the float64 resolution limit :data:`MIN_EXPANDED_ARC`, or if the construction
             fails (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
     """
-    st = _cover_stage(intervals, A)
+    st = _cover_stage(intervals, A) if cover is None else cover
     iv, J, Jl, Jr, ratio = st.iv, st.J, st.Jl, st.Jr, st.ratio
     g0, Pl, Pr, cover_ld = st.g0, st.Pl, st.Pr, st.cover_ld
     m, C = iv.shape[0], len(st.kinds)
