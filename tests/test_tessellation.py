@@ -201,3 +201,19 @@ def test_generate_tiles_neighbours_are_mutual() -> None:
     d = distance(c[:, None], c[None, :])
     np.fill_diagonal(d, np.inf)
     assert d.min() > 1.2  # no duplicate tiles (distinct centres are 2·R_M = 1.254 apart)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.longdouble])
+def test_reduce_angle_is_np_mod_bit_for_bit(dtype: type) -> None:
+    """_reduce_angle replaces np.mod(x, 2π) on (−2π, 2π): the same bits (also −0 → +0)."""
+    from quadmesh.disk.tessellation import TWO_PI, TWO_PI_LD, _reduce_angle
+
+    rng = np.random.default_rng(4)
+    for two_pi in (TWO_PI, TWO_PI_LD):
+        x = np.concatenate(
+            [rng.uniform(-1, 1, 100_000) * TWO_PI, [-0.0, 0.0, -1e-300, 1e-300, -5e-324]]
+        ).astype(dtype)
+        x = np.append(x, np.nextafter(-two_pi, 0).astype(dtype))
+        a, b = np.mod(x, two_pi), _reduce_angle(x, two_pi)
+        assert a.dtype == b.dtype
+        assert np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b))

@@ -196,9 +196,17 @@ def top_point(start: ArrayLike, length: ArrayLike) -> NDArray[np.complex128]:
     return np.exp(1j * (s + ell / 2)) * np.tan(PI_LD / 4 - ell / 4)
 
 
+def _reduce_angle(x: NDArray, two_pi: float | np.longdouble = TWO_PI_LD) -> NDArray:
+    """``np.mod(x, two_pi)`` bit for bit for ``x`` in ``(−two_pi, two_pi)`` (arguments of
+    points, differences of reduced angles): there np.mod's floating remainder is exact and
+    only adds ``two_pi`` to negative ``x``, so one comparison and one addition do the same
+    (3–4 times faster; ``+ 0.0`` turns −0 into +0 as np.mod does)."""
+    return np.where(x < 0, x + two_pi, x) + 0.0
+
+
 def _angle(z: NDArray) -> NDArray:
     """Argument in ``[0, 2π)`` (longdouble for clongdouble input)."""
-    return np.mod(np.angle(z), TWO_PI_LD)
+    return _reduce_angle(np.angle(z))
 
 
 def tile_edge_far_arcs(
@@ -214,7 +222,7 @@ def tile_edge_far_arcs(
     first = np.where(rev, b, a)
     last = np.where(rev, a, b)
     s = _angle(first)
-    ell = np.mod(_angle(last) - s, TWO_PI_LD)
+    ell = _reduce_angle(_angle(last) - s)
     return s, ell
 
 
@@ -934,6 +942,7 @@ def minimal_containing_arc(
     todo = np.arange(n)
     t0 = 0.0
     rounds = 0
+    s_reduced = bool(np.all((s >= 0) & (s < two_pi)))  # then s − cs lies in (−2π, 2π)
     while todo.size:
         ts = np.arange(t0, t0 + chunk, step)
         # blocks of arcs (each arc's search is independent of the others): bounded memory and
@@ -948,14 +957,15 @@ def minimal_containing_arc(
             a = g.apply_rows(g11_start)  # (P, ng)
             b = g.apply_rows(g11_end)
             rev = g.sigma[:, None]
-            fa = np.mod(np.angle(np.where(rev, b, a)), two_pi)  # far arc of the edge: fa -> fb
-            fb = np.mod(np.angle(np.where(rev, a, b)), two_pi)
-            far_l = np.mod(fb - fa, two_pi)
+            fa = _reduce_angle(np.angle(np.where(rev, b, a)), two_pi)  # far arc: fa -> fb
+            fb = _reduce_angle(np.angle(np.where(rev, a, b)), two_pi)
+            far_l = _reduce_angle(fb - fa, two_pi)
             cs = np.stack([fa, fb], axis=2).reshape(len(g), -1)  # (P, 2·ng): far arc, opposite
             cl = np.stack([far_l, two_pi - far_l], axis=2).reshape(len(g), -1)
             owner = np.repeat(blk, ts.size)
             # arc_contains_arc in the search's precision
-            rel = np.mod(s[owner, None] - cs, two_pi)
+            rel = s[owner, None] - cs
+            rel = _reduce_angle(rel, two_pi) if s_reduced else np.mod(rel, two_pi)
             ok = (rel + ell[owner, None] <= cl) & (cl < math.pi)
             score = np.where(ok, cl, np.inf).reshape(blk.size, -1)
             j = np.argmin(score, axis=1)
