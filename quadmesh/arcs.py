@@ -229,10 +229,10 @@ def _rotated_intervals(
 
 
 #: Largest number of arcs I_j for which :func:`best_rotation` tries several rotations: each
-#: trial chooses the arcs and finds Lemma 2.2's cover again (~10–20 ms for m ≤ 16), and the
-#: gain shrinks as m grows (the J_j's fits average out: −1 to −4 % for m = 30); and the
-#: smallest prevertex gap (radians) for which it rotates at all (a rotated point carries a
-#: ~1e-16 rounding error).
+#: trial chooses the arcs and finds Lemma 2.2's cover again (~5–10 ms a rotation for m ≤ 16,
+#: all rotations together), and the gain shrinks as m grows (the J_j's fits average out: −1
+#: to −4 % for m = 30); and the smallest prevertex gap (radians) for which it rotates at all
+#: (a rotated point carries a ~1e-16 rounding error).
 ROTATION_MAX_ARCS = 16
 ROTATION_MIN_GAP = 1e-6
 #: Offset of J_j's centre from its core's centre, relative to J_j's half-width φ, above which the
