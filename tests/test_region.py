@@ -241,3 +241,29 @@ def test_cover_counts_of_several_sets_equal_one_at_a_time() -> None:
             alone.append(None)
     assert 0 < sum(a is None for a in alone) < len(sets) // 2
     assert cover_counts(sets, 16.0) == alone
+
+
+def test_cover_stages_fall_back_to_one_set_at_a_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A failure in a step the sets share (here Lemma 2.1's search, made to fail for one set)
+    is charged to that set alone: the others get the covers they have alone."""
+    import quadmesh.disk.region as region
+
+    sets = [spread_intervals(m, 64.0, seed=m) for m in (3, 5, 8)]
+    marker = float(sets[1][0, 0])
+    search = region.minimal_containing_arc
+
+    def failing(start: np.ndarray, length: np.ndarray, *args: object, **kwargs: object) -> tuple:
+        centre = np.mod(
+            np.asarray(start, dtype=float) + np.asarray(length, dtype=float) / 2, TWO_PI
+        )
+        if np.any(np.abs(centre - (marker + sets[1][0, 1] / 2)) < 1e-9):
+            raise DiskConstructionError("no arc of I5 shorter than π contains arc 0")
+        return search(start, length, *args, **kwargs)
+
+    monkeypatch.setattr(region, "minimal_containing_arc", failing)
+    out = region.cover_stages(sets, 64.0)
+    assert isinstance(out[1], DiskConstructionError)
+    monkeypatch.setattr(region, "minimal_containing_arc", search)
+    for i in (0, 2):
+        assert not isinstance(out[i], DiskConstructionError)
+        assert out[i].count == cover_count(sets[i], 64.0)

@@ -539,8 +539,6 @@ def cover_stages(
         if live:
             _chains_and_covers(ivs, A, out)
     except DiskConstructionError as exc:
-        if n_sets == 1:
-            raise
         if len(live) == 1:
             out[live[0]] = exc
         else:
