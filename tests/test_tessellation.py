@@ -217,3 +217,18 @@ def test_reduce_angle_is_np_mod_bit_for_bit(dtype: type) -> None:
         a, b = np.mod(x, two_pi), _reduce_angle(x, two_pi)
         assert a.dtype == b.dtype
         assert np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b))
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_minimal_containing_arc_of_a_batch_is_that_of_each_arc(fast: bool) -> None:
+    """Every arc's search depends on that arc alone (the arc choice batches the rotations' and
+    the cores' arcs, the cover batches the rotations' arcs): a batch gives each arc, bit for
+    bit, what it gets alone (tiles shared by several arcs' samples included)."""
+    rng = np.random.default_rng(12)
+    s = rng.uniform(0, 2 * np.pi, 120)
+    ell = np.exp(rng.uniform(np.log(1e-9), np.log(0.3), 120))
+    bs, bl, bt, bk = minimal_containing_arc(s, ell, fast=fast)
+    for i in range(0, 120, 7):
+        one = minimal_containing_arc(s[i : i + 1], ell[i : i + 1], fast=fast)
+        assert one[0][0] == bs[i] and one[1][0] == bl[i] and one[3][0] == bk[i]
+        assert np.array_equal(one[2].M[0], bt.M[i]) and one[2].sigma[0] == bt.sigma[i]
