@@ -33,7 +33,28 @@ def _choose_arcs(
     options: MeshOptions,
     where: Callable[[int], str] | None = None,
 ) -> np.ndarray:
-    """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc).
+    """Arcs I_j for the cores [centre ± half] (:func:`_fit_arcs`), raising
+    DiskConstructionError when no arc fits around some core (``where(j)`` names core j in the
+    user's terms in the message)."""
+    arcs, bad = _fit_arcs(centre, half, gap, options)
+    if np.any(bad):
+        j = int(np.flatnonzero(bad)[0])
+        place = f"the point at {centre[j]:.6f} rad of the circle" if where is None else where(j)
+        raise DiskConstructionError(
+            f"no arc of the disk construction fits around {place} (the conformal map leaves "
+            f"only {gap[j]:.3g} rad of the circle between it and its neighbours): this part of "
+            "the polygon is too crowded there; use fewer, longer edges near it, or widen the "
+            "polygon there"
+        )
+    return arcs
+
+
+def _fit_arcs(
+    centre: np.ndarray, half: np.ndarray, gap: np.ndarray, options: MeshOptions
+) -> tuple[np.ndarray, np.ndarray]:
+    """Arcs I_j for the cores [centre ± half] (a prevertex, or a crosscut's prevertex arc),
+    (m, 2) ``(start, length)``, and where no admissible arc fits (bool (m,); those rows are
+    meaningless). Every core's arc depends on its own centre, half-width and gap only.
 
     The boundary of W over J_j is the geodesic γ_j whose image is the crosscut of the thin
     part around the core (paper §7). Its image is round about the vertex only when J_j is
@@ -48,7 +69,6 @@ def _choose_arcs(
     a slightly shorter arc with the same centre up to 2 %), and the A-fold expansion
     (half-width ≈ √A·φ ≤ g/2) stays clear of the neighbours. Where the residual offset is
     large the conformal collar (:mod:`quadmesh.thin.collar`) straightens the crosscut.
-    ``where(j)`` names core j in the user's terms in the error raised when no arc fits.
     """
     two_pi = 2 * np.pi
     sq = np.sqrt(options.lemma_A)
@@ -74,17 +94,8 @@ def _choose_arcs(
         for q, f in zip(quick, full):
             q[redo[better]] = f[better]
     jc, phi, score = quick
-    if np.any(score >= 10.0):
-        j = int(np.flatnonzero(score >= 10.0)[0])
-        place = f"the point at {centre[j]:.6f} rad of the circle" if where is None else where(j)
-        raise DiskConstructionError(
-            f"no arc of the disk construction fits around {place} (the conformal map leaves "
-            f"only {gap[j]:.3g} rad of the circle between it and its neighbours): this part of "
-            "the polygon is too crowded there; use fewer, longer edges near it, or widen the "
-            "polygon there"
-        )
     half_i = phi / (1.02 * sq)
-    return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i])
+    return np.column_stack([np.mod(jc - half_i, two_pi), 2 * half_i]), score >= 10.0
 
 
 def _candidate_arcs(
@@ -106,11 +117,17 @@ def _candidate_arcs(
     hw = np.minimum(target[:, None] * ss[None, :], gap[:, None] / 10.0)
     hw = np.maximum(hw, 1.05 * half[:, None])
     mid = centre[:, None] + oo[None, :] * (hw - half[:, None])
-    js, jl, _, _ = minimal_containing_arc(
-        np.mod(mid - hw, 2 * np.pi).ravel(), (2 * hw).ravel(), fast=True
+    # trial sizes clipped to the gap repeat (about a third of the trials): each distinct arc
+    # is searched once
+    trial, back = np.unique(
+        np.column_stack([np.mod(mid - hw, 2 * np.pi).ravel(), (2 * hw).ravel()]),
+        axis=0,
+        return_inverse=True,
     )
-    phi = jl.reshape(hw.shape) / 2
-    jc = js.reshape(hw.shape) + phi
+    js, jl, _, _ = minimal_containing_arc(trial[:, 0], trial[:, 1], fast=True)
+    back = back.reshape(hw.shape)
+    phi = jl[back] / 2
+    jc = js[back] + phi
     dist = np.abs(np.angle(np.exp(1j * (jc - centre[:, None]))))
     ratio = phi / gap[:, None]
     # J's A-fold expansion reaches (√A/1.02 + 0.9)·φ from the core (centre offset ≤ 0.9φ):
@@ -143,6 +160,16 @@ def piece_intervals(
     ("crosscut", stretch index). ``name(owner)`` says such an owner in the user's terms (for
     the message raised when no arc fits around it).
     """
+    centre, half, gap, owners = _piece_cores(theta, stretches)
+    where = None if name is None else (lambda j: name(owners[j]))
+    return _choose_arcs(centre, half, gap, options, where), owners
+
+
+def _piece_cores(
+    theta: np.ndarray, stretches: list[tuple[int, int]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[tuple[str, int]]]:
+    """The cores of :func:`piece_intervals`' arcs in boundary order: centre, half-width and gap
+    to the neighbouring cores (radians), and the owners."""
     k = theta.size
     two_pi = 2 * np.pi
     owner = np.full(k, -1)
@@ -170,16 +197,42 @@ def piece_intervals(
     after = np.mod(np.roll(lo_s, -1) - hi_s, two_pi)
     gap = np.empty_like(before)
     gap[order] = np.minimum(before, after)
-    owners = [c[2] for c in cores]
-    where = None if name is None else (lambda j: name(owners[j]))
-    arcs = _choose_arcs(centre, half, gap, options, where)
-    return arcs, owners
+    return centre, half, gap, [c[2] for c in cores]
+
+
+def _rotated_intervals(
+    theta: np.ndarray,
+    stretches: list[tuple[int, int]],
+    options: MeshOptions,
+    psis: np.ndarray,
+) -> list[tuple[np.ndarray, list[tuple[str, int]]] | None]:
+    """:func:`piece_intervals` for the prevertices θ + ψ of every rotation ψ, None where no arc
+    fits. The cores of all rotations go through one :func:`_fit_arcs` (one arc search instead
+    of one per rotation: the same arcs, since each core's arc depends on that core alone)."""
+    two_pi = 2 * np.pi
+    cores = [_piece_cores(np.mod(theta + psi, two_pi), stretches) for psi in psis]
+    try:
+        arcs, bad = _fit_arcs(*(np.concatenate([c[i] for c in cores]) for i in range(3)), options)
+    except DiskConstructionError:  # one rotation's search failed: try them one by one
+        out: list[tuple[np.ndarray, list[tuple[str, int]]] | None] = []
+        for psi in psis:
+            try:
+                out.append(piece_intervals(np.mod(theta + psi, two_pi), stretches, options))
+            except DiskConstructionError:
+                out.append(None)
+        return out
+    ends = np.cumsum([c[0].size for c in cores])
+    return [
+        None if b.any() else (a, c[3])
+        for a, b, c in zip(np.split(arcs, ends[:-1]), np.split(bad, ends[:-1]), cores)
+    ]
 
 
 #: Largest number of arcs I_j for which :func:`best_rotation` tries several rotations: each
-#: trial chooses the arcs and builds W again (~30–60 ms for m ≤ 16), and the gain shrinks as m
-#: grows (the J_j's fits average out: −1 to −4 % for m = 30); and the smallest prevertex gap
-#: (radians) for which it rotates at all (a rotated point carries a ~1e-16 rounding error).
+#: trial chooses the arcs and finds Lemma 2.2's cover again (~5–10 ms a rotation for m ≤ 16,
+#: all rotations together), and the gain shrinks as m grows (the J_j's fits average out: −1
+#: to −4 % for m = 30); and the smallest prevertex gap (radians) for which it rotates at all
+#: (a rotated point carries a ~1e-16 rounding error).
 ROTATION_MAX_ARCS = 16
 ROTATION_MIN_GAP = 1e-6
 #: Offset of J_j's centre from its core's centre, relative to J_j's half-width φ, above which the
@@ -225,10 +278,15 @@ def best_rotation(
     conformal collar (measured on the triangle and the L-shape: 22 of 22 cores predicted),
     which costs about as many quads as ROTATION_COLLAR_COST cover arcs. ψ = 2π/5·k/R
     (k < R = options.rotations) are tried and the one with the smallest cover arcs +
-    ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ). Returns ψ, the arcs
-    I_j and their owners for θ + ψ (:func:`piece_intervals`; ``name`` as there).
+    ROTATION_COLLAR_COST × off-centre cores is kept (ties: the smallest ψ) among those for which
+    the arcs fit and W builds (:func:`quadmesh.disk.build_region` raises no
+    DiskConstructionError); if none does, ψ = 0. The costs come from
+    :func:`quadmesh.disk.region.cover_stages` (Lemma 2.2's cover without W's pieces, all
+    rotations at once), and W is completed only for the cheapest rotations, in order of cost,
+    until one builds. Returns ψ, the arcs I_j and their owners for θ + ψ
+    (:func:`piece_intervals`; ``name`` as there).
     """
-    from .disk import build_region
+    from .disk.region import CoverStage, build_region, cover_stages
 
     two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
@@ -239,23 +297,29 @@ def best_rotation(
     prv, _ = _arc_gaps(np.sort(theta))
     if prv.min() < ROTATION_MIN_GAP:
         return 0.0, *first
-    best: tuple[int, float, tuple] | None = None
-    for k in range(count):
-        psi = two_pi / 5 * k / count
-        try:
-            with span(k / count, (k + 1) / count):
-                got = (
-                    first
-                    if k == 0
-                    else piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
-                )
-                cover = len(build_region(got[0], A=options.lemma_A).cover)
-        except DiskConstructionError:
+    # the cost of every rotation from Lemma 2.2's cover alone (cover_stages: W's pentagons and
+    # Carleson pieces do not change it) ...
+    psis = two_pi / 5 * np.arange(count) / count
+    with span(1.0 / count, 0.3):
+        rotated = [first, *_rotated_intervals(theta, stretches, options, psis[1:])]
+    fits = [k for k, got in enumerate(rotated) if got is not None]
+    with span(0.3, 0.9):
+        covers = cover_stages([rotated[k][0] for k in fits], A=options.lemma_A)
+    trials: list[tuple[int, int, float, tuple, CoverStage]] = []
+    for k, cover in zip(fits, covers):
+        if isinstance(cover, DiskConstructionError):
             continue
+        psi, got = psis[k], rotated[k]
         th = np.mod(theta + psi, two_pi)
-        cost = cover + ROTATION_COLLAR_COST * _off_centre_cores(th, stretches, *got, options)
-        if best is None or cost < best[0]:
-            best = (cost, psi, got)
-    if best is None:  # no rotation builds W: let the caller report the unrotated failure
-        return 0.0, *first
-    return best[1], *best[2]
+        off = _off_centre_cores(th, stretches, *got, options)
+        trials.append((cover.count + ROTATION_COLLAR_COST * off, k, psi, got, cover))
+    # ... then the cheapest one (ties: the smallest ψ) whose W builds completely
+    trials.sort(key=lambda t: t[:2])
+    with span(0.9, 1.0):
+        for _, _, psi, got, cover in trials:
+            try:
+                build_region(got[0], A=options.lemma_A, cover=cover)
+            except DiskConstructionError:
+                continue
+            return float(psi), *got
+    return 0.0, *first  # no rotation builds W: let the caller report the unrotated failure

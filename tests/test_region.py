@@ -12,6 +12,8 @@ from quadmesh.disk.region import (
     MIN_EXPANDED_ARC,
     RegionW,
     build_region,
+    cover_count,
+    cover_counts,
     crossing_check,
     in_W,
     piece_membership,
@@ -190,3 +192,78 @@ def test_resolution_limit_is_a_clear_error() -> None:
     u1 = g.apply_rows(P0_VERTICES_LD[(k + 1) % 5][:, None])[:, 0]
     rho = 2.0 * np.arctanh(np.abs(phi_accurate(u0, u1)).astype(float))
     assert np.allclose(rho, L, rtol=2e-3)
+
+
+def test_cover_count_equals_built_cover_on_random_arcs() -> None:
+    """cover_count (steps 1–3 of Lemma 2.2 only) is len(build_region(...).cover) on random arc
+    sets of 1–16 arcs, sizes from 1e-7 rad up to what A allows; where build_region fails,
+    cover_count fails too or build_region failed after the cover."""
+    rng = np.random.default_rng(5)
+    built = 0
+    for trial in range(60):
+        m = int(rng.integers(1, 17))
+        A = float(rng.choice([4.0, 16.0, 64.0]))
+        sp = 2.0 * np.pi / m
+        c = np.arange(m) * sp + rng.uniform(-0.15, 0.15, m) * sp + rng.uniform(0, 2 * np.pi)
+        ell = np.exp(rng.uniform(np.log(1e-7), np.log(min(sp, np.pi) / (A * 1.2)), m))
+        iv = np.column_stack([np.mod(c - ell / 2.0, 2.0 * np.pi), ell])
+        try:
+            R = build_region(iv, A)
+        except DiskConstructionError:
+            try:
+                cover_count(iv, A)
+            except DiskConstructionError:
+                continue
+            continue  # the pentagons failed after the cover: nothing to compare
+        assert cover_count(iv, A) == len(R.cover), trial
+        built += 1
+    assert built >= 40
+
+
+def test_cover_counts_of_several_sets_equal_one_at_a_time() -> None:
+    """cover_counts (the sets' searches, chains and growths done together) gives every set the
+    count it has alone, None where that raises (here one set fails in validation, two in the
+    chain checks)."""
+    rng = np.random.default_rng(9)
+    sets = []
+    for _ in range(24):
+        m = int(rng.integers(1, 17))
+        sp = 2.0 * np.pi / m
+        c = np.arange(m) * sp + rng.uniform(-0.3, 0.3, m) * sp + rng.uniform(0, 2 * np.pi)
+        ell = np.exp(rng.uniform(np.log(1e-7), np.log(min(sp, np.pi) / 16.0), m))
+        sets.append(np.column_stack([np.mod(c - ell / 2.0, 2.0 * np.pi), ell]))
+    sets.insert(5, np.array([[1.0, 0.3]]))  # 16-fold longer than π: fails validation
+    alone = []
+    for iv in sets:
+        try:
+            alone.append(cover_count(iv, 16.0))
+        except DiskConstructionError:
+            alone.append(None)
+    assert 0 < sum(a is None for a in alone) < len(sets) // 2
+    assert cover_counts(sets, 16.0) == alone
+
+
+def test_cover_stages_fall_back_to_one_set_at_a_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A failure in a step the sets share (here Lemma 2.1's search, made to fail for one set)
+    is charged to that set alone: the others get the covers they have alone."""
+    import quadmesh.disk.region as region
+
+    sets = [spread_intervals(m, 64.0, seed=m) for m in (3, 5, 8)]
+    marker = float(sets[1][0, 0])
+    search = region.minimal_containing_arc
+
+    def failing(start: np.ndarray, length: np.ndarray, *args: object, **kwargs: object) -> tuple:
+        centre = np.mod(
+            np.asarray(start, dtype=float) + np.asarray(length, dtype=float) / 2, TWO_PI
+        )
+        if np.any(np.abs(centre - (marker + sets[1][0, 1] / 2)) < 1e-9):
+            raise DiskConstructionError("no arc of I5 shorter than π contains arc 0")
+        return search(start, length, *args, **kwargs)
+
+    monkeypatch.setattr(region, "minimal_containing_arc", failing)
+    out = region.cover_stages(sets, 64.0)
+    assert isinstance(out[1], DiskConstructionError)
+    monkeypatch.setattr(region, "minimal_containing_arc", search)
+    for i in (0, 2):
+        assert not isinstance(out[i], DiskConstructionError)
+        assert out[i].count == cover_count(sets[i], 64.0)

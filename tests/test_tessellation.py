@@ -146,11 +146,16 @@ def test_minimal_arc_rejects_huge_arc() -> None:
         minimal_containing_arc(np.array([0.0]), np.array([3.0]))
 
 
-def test_tileset_batch_dedup_is_scale_invariant() -> None:
+@pytest.mark.parametrize("all_pairs", [0, 4096])
+def test_tileset_batch_dedup_is_scale_invariant(
+    all_pairs: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """add_batch merges repeats (within the batch and against stored tiles) at any scale and
-    keeps distinct tiles apart, also for tiles of Euclidean size 1e-11 near T."""
+    keeps distinct tiles apart, also for tiles of Euclidean size 1e-11 near T (through the
+    bins, and comparing all pairs)."""
     from quadmesh.disk.tessellation import TileSet
 
+    monkeypatch.setattr(TileSet, "_ALL_PAIRS", all_pairs)
     for r in (0.0, 0.9, 1.0 - 1e-11):
         c = r * np.exp(0.7j)
         g = locate(np.array([c]))
@@ -170,6 +175,21 @@ def test_tileset_batch_dedup_is_scale_invariant() -> None:
         assert ts.find(complex(z[4])) == 4
 
 
+def test_tileset_all_pairs_same_tiles_as_bins(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Comparing every pair of tiles (small sets) and looking them up in the bins (large ones)
+    store the same tiles in the same order with the same neighbours."""
+    from quadmesh.disk.tessellation import TileSet
+
+    out = []
+    for all_pairs in (0, 10**9):
+        monkeypatch.setattr(TileSet, "_ALL_PAIRS", all_pairs)
+        out.append(generate_tiles(depth=6))
+    (t0, n0), (t1, n1) = out
+    assert len(t0) > 1000
+    assert np.array_equal(t0.M, t1.M) and np.array_equal(t0.sigma, t1.sigma)
+    assert np.array_equal(n0, n1)
+
+
 def test_generate_tiles_neighbours_are_mutual() -> None:
     tiles, nbr = generate_tiles(depth=4)
     t, k = np.nonzero(nbr >= 0)
@@ -181,3 +201,34 @@ def test_generate_tiles_neighbours_are_mutual() -> None:
     d = distance(c[:, None], c[None, :])
     np.fill_diagonal(d, np.inf)
     assert d.min() > 1.2  # no duplicate tiles (distinct centres are 2·R_M = 1.254 apart)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.longdouble])
+def test_reduce_angle_is_np_mod_bit_for_bit(dtype: type) -> None:
+    """_reduce_angle replaces np.mod(x, 2π) on (−2π, 2π): the same bits (also −0 → +0)."""
+    from quadmesh.disk.tessellation import TWO_PI, TWO_PI_LD, _reduce_angle
+
+    rng = np.random.default_rng(4)
+    for two_pi in (TWO_PI, TWO_PI_LD):
+        x = np.concatenate(
+            [rng.uniform(-1, 1, 100_000) * TWO_PI, [-0.0, 0.0, -1e-300, 1e-300, -5e-324]]
+        ).astype(dtype)
+        x = np.append(x, np.nextafter(-two_pi, 0).astype(dtype))
+        a, b = np.mod(x, two_pi), _reduce_angle(x, two_pi)
+        assert a.dtype == b.dtype
+        assert np.array_equal(a, b) and np.array_equal(np.signbit(a), np.signbit(b))
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_minimal_containing_arc_of_a_batch_is_that_of_each_arc(fast: bool) -> None:
+    """Every arc's search depends on that arc alone (the arc choice batches the rotations' and
+    the cores' arcs, the cover batches the rotations' arcs): a batch gives each arc, bit for
+    bit, what it gets alone (tiles shared by several arcs' samples included)."""
+    rng = np.random.default_rng(12)
+    s = rng.uniform(0, 2 * np.pi, 120)
+    ell = np.exp(rng.uniform(np.log(1e-9), np.log(0.3), 120))
+    bs, bl, bt, bk = minimal_containing_arc(s, ell, fast=fast)
+    for i in range(0, 120, 7):
+        one = minimal_containing_arc(s[i : i + 1], ell[i : i + 1], fast=fast)
+        assert one[0][0] == bs[i] and one[1][0] == bl[i] and one[3][0] == bk[i]
+        assert np.array_equal(one[2].M[0], bt.M[i]) and one[2].sigma[0] == bt.sigma[i]

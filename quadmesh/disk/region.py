@@ -65,9 +65,13 @@ __all__ = [
     "CarlesonQuadrilateral",
     "CarlesonTriangle",
     "CoverArc",
+    "CoverStage",
     "RegionW",
     "RightPentagon",
     "build_region",
+    "cover_count",
+    "cover_counts",
+    "cover_stages",
     "crossing_check",
     "in_W",
     "piece_membership",
@@ -351,70 +355,221 @@ class _ArcTable:
 
 
 # --------------------------------------------------------------------------- Lemma 2.2
-def build_region(intervals: ArrayLike, A: float) -> RegionW:
-    """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
+def _greedy_chain(
+    rs: NDArray[np.longdouble],
+    re: NDArray[np.longdouble],
+    ell: NDArray[np.longdouble],
+    r0: np.longdouble,
+    q: np.longdouble,
+    after: int,
+) -> list[int]:
+    """The K arcs of Lemma 2.2's cover in one gap of F (step 3 of the module docstring), as
+    indices into the candidate arcs ``(rs, re)`` (positions relative to the gap, lengths
+    ``ell``): from the point ``r0`` on, the candidate that contains the current point (``rs <
+    r < re``) and reaches furthest (ties: the longer, then the first) is taken and its end
+    becomes the current point, until the point passes ``q``.
 
-    Args:
-        intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
-        A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
-            shorter than π.
-
-    Raises:
-        DiskConstructionError: naming the violated hypothesis, if some ``√A·|I_j|`` is below
-            the float64 resolution limit :data:`MIN_EXPANDED_ARC`, or if the construction
-            fails (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
+    The candidates with ``rs < r`` are a prefix of the candidates sorted by start, so the one
+    taken is the best-ranked in that prefix (if it contains ``r`` at all): every candidate's
+    successor is found at once (searchsorted on prefix minima of the ranks) and the chain is
+    followed from ``r0``. Raises DiskConstructionError (naming the gap ``after`` arc) if no
+    candidate contains the current point.
     """
-    iv = _validate(intervals, A)
-    m = iv.shape[0]
-    sq = np.sqrt(np.longdouble(A))
-    centre = iv[:, 0] + iv[:, 1] / 2
-    es, el = np.mod(centre - sq * iv[:, 1] / 2, TWO_PI_LD), sq * iv[:, 1]
-    with span(0.0, 0.5):
-        js, jl, _, _ = minimal_containing_arc(es, el)
-    ratio = jl / el
+    n = rs.size
+    rank_order = np.lexsort((-ell, -re))  # the best candidate first
+    rank = np.empty(n, dtype=np.int64)
+    rank[rank_order] = np.arange(n)
+    by_start = np.argsort(rs, kind="stable")
+    pts = np.append(re, r0)  # the points a chain can be at: candidate ends, and r0
+    before = np.searchsorted(rs[by_start], pts, side="left")  # how many start before each
+    succ = np.full(n + 1, -1, dtype=np.int64)
+    has = before > 0
+    if n:
+        best = rank_order[np.minimum.accumulate(rank[by_start])[before[has] - 1]]
+        succ[np.flatnonzero(has)] = np.where(re[best] > pts[has], best, -1)
+    chain: list[int] = []
+    r, i = r0, succ[n]
+    while r <= q:
+        if i < 0:
+            raise DiskConstructionError(
+                f"cover construction failed in the gap after arc {after}: no tessellation arc "
+                "inside the gap contains the current point"
+            )
+        chain.append(int(i))
+        r, i = re[i], succ[i]
+        if len(chain) > 100000:
+            raise DiskConstructionError("cover construction did not terminate")
+    return chain
 
-    # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r
-    # a point 0.05 above the top point (any point that close lies in a tile with an edge on
-    # γ_j, also next to a tile vertex on γ_j); 1 − |top| = 2t/(1+t), t = tan(|J|/4), is used
-    # directly so that the distance to 0 keeps its relative accuracy for tiny J
-    t_ = np.tan(jl / 4)
-    q_ = 2 * t_ / (1 + t_)
-    dtop = np.log((2 - q_) / q_)
-    above = np.exp(1j * (js + jl / 2)) * np.tanh(np.maximum(dtop - 0.05, 0.0) / 2)
-    g0 = locate(above)
-    fs, fl = tile_edge_far_arcs(g0)
-    match = arcs_match(fs, fl, js[:, None], jl[:, None])
+
+def _tile_cap(m: int) -> int:
+    """Most tiles a growth of :func:`build_region` may reach for m arcs (Lemma 2.3: O(m)
+    tiles, about 12 per interval measured)."""
+    return 20000 + 5000 * m
+
+
+@dataclass(frozen=True, eq=False)
+class CoverStage:
+    """Steps 1–3 of Lemma 2.2 (module docstring): the chains about the ``J_j`` and the
+    overlap-≤2 cover, i.e. everything :func:`build_region` computes before the pentagons.
+
+    ``iv``: the validated arcs (longdouble); ``J``/``Jl``/``Jr``: (m, 2) longdouble arcs in
+    input order; ``ratio``: |J_j| / |√A I_j|; ``g0``/``Pl``/``Pr``: the tiles ``P0``, ``P_l``,
+    ``P_r`` of every chain; ``kinds``/``owner``/``cover_ld``: the cover arcs in circular order
+    (the ``kind`` and ``interval`` of their :class:`CoverArc`, and their (C, 2) longdouble
+    ``(start, length)``).
+    """
+
+    iv: NDArray[np.longdouble]
+    J: NDArray[np.longdouble]
+    Jl: NDArray[np.longdouble]
+    Jr: NDArray[np.longdouble]
+    ratio: NDArray[np.longdouble]
+    g0: Isometry
+    Pl: Isometry
+    Pr: Isometry
+    kinds: list[str]
+    owner: list[int]
+    cover_ld: NDArray[np.longdouble]
+
+    @property
+    def count(self) -> int:
+        """Number of cover arcs."""
+        return len(self.kinds)
+
+
+def cover_count(intervals: ArrayLike, A: float) -> int:
+    """Number of arcs of Lemma 2.2's overlap-≤2 cover of T for the arcs ``intervals``:
+    ``len(build_region(intervals, A).cover)`` without building the pentagons and the Carleson
+    pieces (steps 1–3 of the module docstring only, shared with :func:`build_region`).
+
+    Raises DiskConstructionError where :func:`build_region` does in those steps; it can
+    still fail afterwards (a cover geodesic carrying no pentagon edge, or the boundary edges
+    of consecutive cover arcs not meeting), which this count does not check.
+    """
+    return _cover_stage(intervals, A).count
+
+
+def cover_counts(interval_sets: list[ArrayLike], A: float) -> list[int | None]:
+    """:func:`cover_count` of several arc sets (None where it raises), computed together: the
+    Lemma 2.1 searches, the pentagon chains and the tile growths of all sets run as one
+    (vectorised over the sets; each set's cover is the one it has alone)."""
+    return [
+        None if isinstance(st, DiskConstructionError) else st.count
+        for st in cover_stages(interval_sets, A)
+    ]
+
+
+def _cover_stage(intervals: ArrayLike, A: float) -> CoverStage:
+    """Steps 1–3 of Lemma 2.2 for one arc set (:func:`cover_stages`), raising its error."""
+    st = cover_stages([intervals], A)[0]
+    if isinstance(st, DiskConstructionError):
+        raise st
+    return st
+
+
+class _GapCandidates:
+    """The gaps of F = ∪J_j of one arc set and the growth's stop rule of step 3: stop at the
+    J/J^l/J^r arcs (label 0) and at the arcs compactly inside a gap and shorter than π (label
+    1, recorded as candidate K arcs)."""
+
+    def __init__(
+        self, J: NDArray[np.longdouble], Jl: NDArray[np.longdouble], Jr: NDArray[np.longdouble]
+    ) -> None:
+        m = J.shape[0]
+        self.order = np.argsort(J[:, 0])
+        self.chain_table = _ArcTable(
+            np.concatenate([J[:, 0], Jl[:, 0], Jr[:, 0]]),
+            np.concatenate([J[:, 1], Jl[:, 1], Jr[:, 1]]),
+        )
+        self.Js, Jls = J[self.order, 0], J[self.order, 1]
+        self.Je = self.Js + Jls
+        self.gap_len = np.mod(np.roll(self.Js, -1) - self.Je, TWO_PI_LD)
+        if m == 1:
+            self.gap_len = np.array([TWO_PI_LD - Jls[0]])
+        self.cand_s: list[NDArray[np.float64]] = []
+        self.cand_l: list[NDArray[np.float64]] = []
+        self.edges = 0  # edges seen by the stop rule: 5 per tile grown
+
+    def gap_of(self, s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        """Index (in ``order``) of the gap that holds each arc compactly, or -1."""
+        i = np.mod(np.searchsorted(self.Js, s, side="right") - 1, self.Js.size)
+        rel = np.mod(s - self.Je[i], TWO_PI_LD)
+        inside = (rel > 0.0) & (rel + ell < self.gap_len[i])
+        return np.where(inside, i, -1)
+
+    def stop(self, s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
+        """The stop labels of a batch of edges (their far arcs), recording the candidates."""
+        self.edges += s.size
+        lab = np.full(s.shape, -1, dtype=np.int64)
+        lab[self.chain_table.lookup(s, ell) >= 0] = 0
+        g = self.gap_of(s, ell)
+        # K arcs must be shorter than π: a maximal I5 arc of a long gap can be almost all of T
+        # (its geodesic then hugs the J's and the "Carleson quadrilaterals" under it cover
+        # most of D, far from Lemma 5.1's shape); the growth crosses such edges instead.
+        is_c = (g >= 0) & (lab < 0) & (ell < math.pi)
+        lab[is_c] = 1
+        self.cand_s.append(s[is_c])
+        self.cand_l.append(ell[is_c])
+        return lab
+
+
+def cover_stages(
+    interval_sets: list[ArrayLike], A: float
+) -> list[CoverStage | DiskConstructionError]:
+    """Steps 1–3 of Lemma 2.2 for each arc set: validate the arcs, find the ``J_j`` (Lemma
+    2.1) and their pentagon chains, grow the candidate K arcs and choose the cover greedily
+    (see :class:`CoverStage`); per set, its stage or the DiskConstructionError that
+    :func:`build_region` raises for it.
+
+    The sets are processed together (one Lemma 2.1 search, one point location and one tile
+    growth with a group per set); every set gets what it gets alone. Should a shared step
+    fail (its error could not be told apart by set), the sets are done one at a time.
+    """
+    n_sets = len(interval_sets)
+    out: list[CoverStage | DiskConstructionError | None] = [None] * n_sets
+    ivs: dict[int, NDArray[np.longdouble]] = {}
+    for g, intervals in enumerate(interval_sets):
+        try:
+            ivs[g] = _validate(intervals, A)
+        except DiskConstructionError as exc:
+            out[g] = exc
+    live = list(ivs)
+    try:
+        if live:
+            _chains_and_covers(ivs, A, out)
+    except DiskConstructionError as exc:
+        if len(live) == 1:
+            out[live[0]] = exc
+        else:
+            for g in live:
+                out[g] = cover_stages([interval_sets[g]], A)[0]
+    return out  # type: ignore[return-value]
+
+
+def _chain_checks(
+    match: NDArray[np.bool_],
+    first_is_l: NDArray[np.bool_],
+    second_is_l: NDArray[np.bool_],
+    J: NDArray[np.longdouble],
+    Jl: NDArray[np.longdouble],
+    Jr: NDArray[np.longdouble],
+    A: float,
+) -> _GapCandidates:
+    """The checks of one set's pentagon chains (a P0 edge on every γ_j; J^l, J^r each holding
+    one end of J_j; the J's disjoint and no chain reaching the next J), raising the
+    DiskConstructionError of the first that fails; then its gaps of F."""
     if not np.all(match.any(axis=1)):
         j = int(np.nonzero(~match.any(axis=1))[0][0])
         raise _arc_error(f"no pentagon edge found on the geodesic over arc {j} at its top", j)
-    k0 = np.argmax(match, axis=1)
-    p1 = g0 @ REFLECTIONS[(k0 + 1) % 5]
-    p2 = g0 @ REFLECTIONS[(k0 - 1) % 5]
-    s1, l1 = tile_edge_far_arcs(p1)
-    s2, l2 = tile_edge_far_arcs(p2)
-    r = np.arange(m)
-    a1 = np.stack([s1[r, (k0 - 1) % 5], l1[r, (k0 - 1) % 5]], axis=1)
-    a2 = np.stack([s2[r, (k0 + 1) % 5], l2[r, (k0 + 1) % 5]], axis=1)
-    first_is_l = arc_contains_point(a1[:, 0], a1[:, 1], js)
-    second_is_l = arc_contains_point(a2[:, 0], a2[:, 1], js)
     if np.any(first_is_l == second_is_l):
         raise DiskConstructionError(
             "the tessellation arcs beside an arc's containing arc do not each hold one of its "
             "endpoints"
         )
-    Jl = np.where(first_is_l[:, None], a1, a2)
-    Jr = np.where(first_is_l[:, None], a2, a1)
-    Pl = Isometry(
-        np.where(first_is_l[:, None, None], p1.M, p2.M), np.where(first_is_l, p1.sigma, p2.sigma)
-    )
-    Pr = Isometry(
-        np.where(first_is_l[:, None, None], p2.M, p1.M), np.where(first_is_l, p2.sigma, p1.sigma)
-    )
-    J = np.stack([js, jl], axis=1)
-
     # ---- order chains, check the J's are disjoint and chains do not reach the next J
-    order = np.argsort(js)
-    if m > 1:
+    order = np.argsort(J[:, 0])
+    if J.shape[0] > 1:
         a_, b_ = order, np.roll(order, -1)
         checks = (
             (
@@ -443,60 +598,35 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
             if np.any(bad):
                 i = int(np.flatnonzero(bad)[0])
                 raise _arc_error(msg.format(a_[i], b_[i], A), int(a_[i]), int(b_[i]))
+    return _GapCandidates(J, Jl, Jr)
 
-    # ---- candidate K arcs: grow tiles, stop at J/Jl/Jr arcs and at arcs inside F-gaps
-    chain_s = np.concatenate([J[:, 0], Jl[:, 0], Jr[:, 0]])
-    chain_l = np.concatenate([J[:, 1], Jl[:, 1], Jr[:, 1]])
-    chain_table = _ArcTable(chain_s, chain_l)
-    Js, Jls = J[order, 0], J[order, 1]
-    Je = Js + Jls
-    gap_len = np.mod(np.roll(Js, -1) - Je, TWO_PI_LD)
-    if m == 1:
-        gap_len = np.array([TWO_PI_LD - Jls[0]])
 
-    def gap_of(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
-        i = np.mod(np.searchsorted(Js, s, side="right") - 1, m)
-        rel = np.mod(s - Je[i], TWO_PI_LD)
-        inside = (rel > 0.0) & (rel + ell < gap_len[i])
-        return np.where(inside, i, -1)
-
-    cap = 20000 + 5000 * m  # Lemma 2.3: O(m) tiles (about 12 per interval measured)
-    cand_s: list[NDArray[np.float64]] = []
-    cand_l: list[NDArray[np.float64]] = []
-
-    def stop_candidates(s: NDArray[np.float64], ell: NDArray[np.float64]) -> NDArray[np.int64]:
-        lab = np.full(s.shape, -1, dtype=np.int64)
-        lab[chain_table.lookup(s, ell) >= 0] = 0
-        g = gap_of(s, ell)
-        # K arcs must be shorter than π: a maximal I5 arc of a long gap can be almost all of T
-        # (its geodesic then hugs the J's and the "Carleson quadrilaterals" under it cover
-        # most of D, far from Lemma 5.1's shape); the growth crosses such edges instead.
-        is_c = (g >= 0) & (lab < 0) & (ell < math.pi)
-        lab[is_c] = 1
-        cand_s.append(s[is_c])
-        cand_l.append(ell[is_c])
-        return lab
-
-    seeds = Isometry(
-        np.concatenate([g0.M, Pl.M, Pr.M]), np.concatenate([g0.sigma, Pl.sigma, Pr.sigma])
-    )
-    checkpoint(0.6)
-    grow_tiles(seeds, stop_candidates, max_tiles=cap)  # records the candidates through the callback
-    cs = np.concatenate(cand_s)
-    cl = np.concatenate(cand_l)
-    cgap = gap_of(cs, cl)
-
-    # ---- greedy overlap-≤2 cover in circular order
-    cover: list[CoverArc] = []
+def _greedy_cover(
+    gaps: _GapCandidates,
+    J: NDArray[np.longdouble],
+    Jl: NDArray[np.longdouble],
+    Jr: NDArray[np.longdouble],
+) -> tuple[list[str], list[int], NDArray[np.longdouble]]:
+    """Step 3's overlap-≤2 cover in circular order from the grown candidates: per J_j in
+    circular order J^l_j, J_j, J^r_j and the greedy K arcs of the gap after it
+    (:func:`_greedy_chain`); checks that consecutive arcs overlap and no three do. Returns
+    the kinds, the owners (j, or -1 for K) and the (C, 2) longdouble arcs."""
+    m = J.shape[0]
+    order, Je = gaps.order, gaps.Je
+    cs = np.concatenate(gaps.cand_s)
+    cl = np.concatenate(gaps.cand_l)
+    cgap = gaps.gap_of(cs, cl)
+    kinds: list[str] = []
+    owner: list[int] = []
     cov_ld: list[tuple[np.longdouble, np.longdouble]] = []
 
     def add_cover(kind: str, j: int, start: np.longdouble, length: np.longdouble) -> None:
-        cover.append(CoverArc(kind, j, float(start), float(length)))
+        kinds.append(kind)
+        owner.append(j)
         cov_ld.append((start, length))
 
     cg_order = np.argsort(cgap, kind="stable")
     cg_bounds = np.searchsorted(cgap[cg_order], np.arange(m + 1))
-    checkpoint(0.7)
     for pos, k in enumerate(order):
         checkpoint(0.7 + 0.1 * pos / m)
         nxt = order[(pos + 1) % m]
@@ -508,21 +638,9 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         re = rs + cl[sel]
         r_ = (Jr[k, 0] + Jr[k, 1] - Je[pos]) % TWO_PI_LD
         q_ = (Jl[nxt, 0] - Je[pos]) % TWO_PI_LD
-        steps = 0
-        while r_ <= q_:
-            ok = (rs < r_) & (r_ < re)
-            if not np.any(ok):
-                raise DiskConstructionError(
-                    f"cover construction failed in the gap after arc {k}: no tessellation arc "
-                    "inside the gap contains the current point"
-                )
-            best = np.flatnonzero(ok)[np.lexsort((-cl[sel][ok], -re[ok]))[0]]
+        for best in _greedy_chain(rs, re, cl[sel], r_, q_, int(k)):
             add_cover(KIND_K, -1, np.mod(Je[pos] + rs[best], TWO_PI_LD), cl[sel][best])
-            r_ = re[best]
-            steps += 1
-            if steps > 100000:
-                raise DiskConstructionError("cover construction did not terminate")
-    C = len(cover)
+    C = len(kinds)
     cover_ld = np.array(cov_ld, dtype=np.longdouble).reshape(C, 2)
     cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
     xs, xl = np.roll(cvs, 1), np.roll(cvl, 1)
@@ -534,6 +652,141 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         triple = _arcs_intersect(xs, xl, np.roll(cvs, -1), np.roll(cvl, -1))
         if np.any(triple):
             raise DiskConstructionError(f"triple overlap at cover arc {int(np.argmax(triple))}")
+    return kinds, owner, cover_ld
+
+
+def _chains_and_covers(
+    ivs: dict[int, NDArray[np.longdouble]],
+    A: float,
+    out: list[CoverStage | DiskConstructionError | None],
+) -> None:
+    """The body of :func:`cover_stages` for the validated sets ``ivs`` (set index → arcs):
+    fills ``out``; raises DiskConstructionError from the steps shared by the sets."""
+    live = list(ivs)
+    iv_all = np.concatenate([ivs[g] for g in live])
+    first = np.cumsum([0] + [ivs[g].shape[0] for g in live])
+    sq = np.sqrt(np.longdouble(A))
+    centre = iv_all[:, 0] + iv_all[:, 1] / 2
+    es, el = np.mod(centre - sq * iv_all[:, 1] / 2, TWO_PI_LD), sq * iv_all[:, 1]
+    with span(0.0, 0.5):
+        js, jl, _, _ = minimal_containing_arc(es, el)
+    ratio = jl / el
+
+    # ---- chains: P0 at the top point of γ_j, P1, P2, J^l, J^r
+    # a point 0.05 above the top point (any point that close lies in a tile with an edge on
+    # γ_j, also next to a tile vertex on γ_j); 1 − |top| = 2t/(1+t), t = tan(|J|/4), is used
+    # directly so that the distance to 0 keeps its relative accuracy for tiny J
+    t_ = np.tan(jl / 4)
+    q_ = 2 * t_ / (1 + t_)
+    dtop = np.log((2 - q_) / q_)
+    above = np.exp(1j * (js + jl / 2)) * np.tanh(np.maximum(dtop - 0.05, 0.0) / 2)
+    g0 = locate(above)
+    fs, fl = tile_edge_far_arcs(g0)
+    match = arcs_match(fs, fl, js[:, None], jl[:, None])
+    k0 = np.argmax(match, axis=1)
+    p1 = g0 @ REFLECTIONS[(k0 + 1) % 5]
+    p2 = g0 @ REFLECTIONS[(k0 - 1) % 5]
+    s1, l1 = tile_edge_far_arcs(p1)
+    s2, l2 = tile_edge_far_arcs(p2)
+    r = np.arange(iv_all.shape[0])
+    a1 = np.stack([s1[r, (k0 - 1) % 5], l1[r, (k0 - 1) % 5]], axis=1)
+    a2 = np.stack([s2[r, (k0 + 1) % 5], l2[r, (k0 + 1) % 5]], axis=1)
+    first_is_l = arc_contains_point(a1[:, 0], a1[:, 1], js)
+    second_is_l = arc_contains_point(a2[:, 0], a2[:, 1], js)
+    Jl_all = np.where(first_is_l[:, None], a1, a2)
+    Jr_all = np.where(first_is_l[:, None], a2, a1)
+    Pl_all = Isometry(
+        np.where(first_is_l[:, None, None], p1.M, p2.M), np.where(first_is_l, p1.sigma, p2.sigma)
+    )
+    Pr_all = Isometry(
+        np.where(first_is_l[:, None, None], p2.M, p1.M), np.where(first_is_l, p2.sigma, p1.sigma)
+    )
+    J_all = np.stack([js, jl], axis=1)
+
+    grow: list[tuple[int, slice, _GapCandidates]] = []
+    for i, g in enumerate(live):
+        sl = slice(first[i], first[i + 1])
+        try:
+            gaps = _chain_checks(
+                match[sl], first_is_l[sl], second_is_l[sl], J_all[sl], Jl_all[sl], Jr_all[sl], A
+            )
+        except DiskConstructionError as exc:
+            out[g] = exc
+            continue
+        grow.append((g, sl, gaps))
+    if not grow:
+        return
+
+    # ---- candidate K arcs: grow tiles, stop at J/Jl/Jr arcs and at arcs inside F-gaps
+    parts = [np.arange(sl.start, sl.stop) for _, sl, _ in grow]
+    seed_rows = np.concatenate([np.concatenate([p, p, p]) for p in parts])
+    which = np.concatenate([np.repeat(np.arange(3), p.size) for p in parts])
+    groups = np.concatenate([np.full(3 * p.size, i, dtype=np.int64) for i, p in enumerate(parts)])
+    seeds_M = np.stack([g0.M, Pl_all.M, Pr_all.M])[which, seed_rows]
+    seeds_sigma = np.stack([g0.sigma, Pl_all.sigma, Pr_all.sigma])[which, seed_rows]
+
+    def stop(s: NDArray[np.float64], ell: NDArray[np.float64], grp: NDArray[np.int64]):
+        lab = np.empty(s.shape, dtype=np.int64)
+        bounds = np.flatnonzero(np.diff(grp)) + 1  # the edges come group by group
+        for sel in np.split(np.arange(s.size), bounds):
+            lab[sel] = grow[int(grp[sel[0]])][2].stop(s[sel], ell[sel])
+        return lab
+
+    caps = [_tile_cap(sl.stop - sl.start) for _, sl, _ in grow]
+    checkpoint(0.6)
+    grow_tiles(Isometry(seeds_M, seeds_sigma), stop, max_tiles=sum(caps), groups=groups)
+    checkpoint(0.7)
+    for (g, sl, gaps), cap in zip(grow, caps):
+        if gaps.edges // 5 > cap:  # alone, its growth would have stopped with this error
+            out[g] = DiskConstructionError(
+                f"tile region grew beyond {cap} tiles; the intervals are too close "
+                "together or too small for the construction"
+            )
+            continue
+        try:
+            kinds, owner, cover_ld = _greedy_cover(gaps, J_all[sl], Jl_all[sl], Jr_all[sl])
+        except DiskConstructionError as exc:
+            out[g] = exc
+            continue
+        out[g] = CoverStage(
+            ivs[g],
+            J_all[sl],
+            Jl_all[sl],
+            Jr_all[sl],
+            ratio[sl],
+            g0[sl],
+            Pl_all[sl],
+            Pr_all[sl],
+            kinds,
+            owner,
+            cover_ld,
+        )
+
+
+def build_region(intervals: ArrayLike, A: float, cover: CoverStage | None = None) -> RegionW:
+    """Lemma 2.2: decompose W into right pentagons, Carleson quadrilaterals and triangles.
+
+    Args:
+        intervals: (m, 2) arcs ``(start angle, CCW length)`` in radians.
+        A: expansion factor (> 1); the A-fold concentric expansions must be disjoint and
+            shorter than π.
+        cover: steps 1–3 (the cover) already done for these intervals and A by
+            :func:`cover_stages`; they are then not done again.
+
+    Raises:
+        DiskConstructionError: naming the violated hypothesis, if some ``√A·|I_j|`` is below
+            the float64 resolution limit :data:`MIN_EXPANDED_ARC`, or if the construction
+            fails (the ``J_j`` overlap, a chain's ``J^l/J^r`` reaches the next ``J``, ...).
+    """
+    st = _cover_stage(intervals, A) if cover is None else cover
+    iv, J, Jl, Jr, ratio = st.iv, st.J, st.Jl, st.Jr, st.ratio
+    g0, Pl, Pr, cover_ld = st.g0, st.Pl, st.Pr, st.cover_ld
+    m, C = iv.shape[0], len(st.kinds)
+    cvs, cvl = cover_ld[:, 0], cover_ld[:, 1]
+    cover = tuple(
+        CoverArc(kind, j, float(a), float(b))
+        for kind, j, (a, b) in zip(st.kinds, st.owner, cover_ld)
+    )
 
     # ---- pentagons: tiles not below any cover geodesic
     cover_table = _ArcTable(cvs, cvl)
@@ -545,7 +798,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         np.concatenate([Pl.M, g0.M, Pr.M]), np.concatenate([Pl.sigma, g0.sigma, Pr.sigma])
     )
     checkpoint(0.8)
-    tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=cap)
+    tiles, nbr, lab, seed_idx = grow_tiles(seeds, stop_cover, max_tiles=_tile_cap(m))
     checkpoint(0.9)
     chain_tiles = seed_idx.reshape(3, m).T.copy()
 
@@ -677,7 +930,7 @@ def build_region(intervals: ArrayLike, A: float) -> RegionW:
         Jl=Jl.astype(float),
         Jr=Jr.astype(float),
         gamma=gamma.astype(np.complex128),
-        cover=tuple(cover),
+        cover=cover,
         crossings=crossings,
         tiles=tiles,
         tile_neighbour=nbr,

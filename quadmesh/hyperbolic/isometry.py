@@ -28,6 +28,9 @@ from numpy.typing import ArrayLike, NDArray
 ComplexArray = NDArray[np.complex128]
 
 
+_COMPLEX_DTYPES = (np.dtype(np.complex128), np.dtype(np.clongdouble))
+
+
 def _cdtype(*arrays: ArrayLike) -> type:
     """``clongdouble`` if any input is extended precision, else ``complex128``."""
     for a in arrays:
@@ -103,10 +106,16 @@ class Isometry:
     sigma: NDArray[np.bool_]
 
     def __post_init__(self) -> None:
-        M = np.asarray(self.M, dtype=_cdtype(self.M))
+        M = self.M
+        if not (isinstance(M, np.ndarray) and M.dtype in _COMPLEX_DTYPES):
+            M = np.asarray(M, dtype=_cdtype(M))
         if M.shape[-2:] != (2, 2):
             raise ValueError(f"Isometry matrix must have shape (...,2,2), got {M.shape}")
-        sigma = np.broadcast_to(np.asarray(self.sigma, dtype=bool), M.shape[:-2]).copy()
+        sigma = self.sigma
+        if isinstance(sigma, np.ndarray) and sigma.dtype == bool and sigma.shape == M.shape[:-2]:
+            sigma = sigma.copy()  # the common case, without broadcast_to's overhead
+        else:
+            sigma = np.broadcast_to(np.asarray(sigma, dtype=bool), M.shape[:-2]).copy()
         object.__setattr__(self, "M", M)
         object.__setattr__(self, "sigma", sigma)
 
@@ -200,7 +209,7 @@ def apply_isometries(M: ArrayLike, sigma: ArrayLike, z: ArrayLike) -> ComplexArr
     sigma = np.asarray(sigma, dtype=bool)
     z = np.asarray(z, dtype=dt)
     if z.ndim == 1:
-        z = np.broadcast_to(z, (M.shape[0], z.shape[0]))
+        z = z[None, :]  # np.where broadcasts it to (k, p)
     w = np.where(sigma[:, None], np.conj(z), z)
     return _mobius_apply_batched(M[:, None, :, :], w)
 
