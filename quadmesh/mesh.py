@@ -360,8 +360,17 @@ def _lfs_cells(
         return np.clip(i, 0, g - 1, out=i)
 
     code = _morton(grid(x.real, lo_x), grid(x.imag, lo_y))
-    order = np.argsort(code, kind="stable")
-    code = code[order]
+    ibits = max(int(x.size - 1).bit_length(), 1)
+    if 2 * _LFS_BITS + ibits <= 63:
+        # a plain sort of (code, index) packed in one integer: the stable argsort's order
+        code <<= ibits
+        code |= np.arange(x.size, dtype=np.int64)
+        code.sort()
+        order = code & ((1 << ibits) - 1)
+        code >>= ibits
+    else:
+        order = np.argsort(code, kind="stable")
+        code = code[order]
     slack = 2 * feat.slack + 1e-12 * (abs(lo_x) + abs(lo_y) + size)
     # the cells to split: Z-order prefix and integer position at the current level
     pre = np.zeros(1, dtype=np.int64)
@@ -464,9 +473,11 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
         out[order[j]] = feat.exact(xs[j])
         done += j.size
         checkpoint(0.4 + 0.6 * done / m)
-    # the features of every cell, a row per cell, for each number of features
-    srt = np.argsort(cell, kind="stable")
-    cell, f = cell[srt], f[srt]
+    # the features of every cell in ascending order of index (corners first), a row per cell
+    # for each number of features; the cells of one incidence pattern are evaluated together
+    nf2 = 2 * feat.n
+    key = np.sort(cell * nf2 + f)
+    cell, f = key // nf2, key % nf2
     rank = np.arange(cell.size) - np.searchsorted(cell, np.arange(start.size))[cell]
     for k in np.unique(nf[~over]):
         cl = np.flatnonzero(nf == k)
@@ -474,20 +485,112 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
         sel = nf[cell] == k
         table[cell[sel], rank[sel]] = f[sel]
         table = table[cl]
-        # inf on the incident pairs, 0 on the others
-        penalty = np.where(feat.non_incident(table), 0.0, np.inf)
-        iu, ju = np.triu_indices(k, 1)
-        pos = _ranges(start[cl], end[cl])
-        row = np.repeat(np.arange(cl.size), end[cl] - start[cl])
-        for i in range(0, pos.size, _LFS_CHUNK):
-            p, r = pos[i : i + _LFS_CHUNK], row[i : i + _LFS_CHUNK]
-            d = feat.distance(xs[p], table[r])
-            val = np.maximum(d[:, iu], d[:, ju])
-            val += penalty[r]
-            out[order[p]] = val.min(axis=1)
-            done += p.size
-            checkpoint(0.4 + 0.6 * done / m)
+        n_corners = np.count_nonzero(table < feat.n, axis=1)
+        pattern = np.column_stack([n_corners, feat.non_incident(table)])
+        for rows in _equal_rows(pattern):
+            done = _lfs_pattern(
+                feat,
+                xs,
+                order,
+                out,
+                start[cl[rows]],
+                end[cl[rows]],
+                table[rows],
+                pattern[rows[0]],
+                done,
+                m,
+            )
     return out
+
+
+def _equal_rows(a: np.ndarray) -> list[np.ndarray]:
+    """The groups of equal rows of the 2-D array ``a`` of small non-negative integers (below
+    256), each as the ascending indices of its rows; groups in lexicographic order."""
+    if a.shape[0] == 0:
+        return []
+    b = np.zeros((a.shape[0], -(-a.shape[1] // 8) * 8), dtype=np.uint8)
+    b[:, : a.shape[1]] = a
+    w = b.view(np.uint64)  # 8 entries per word: equal words iff equal entries
+    o = np.lexsort(w.T[::-1])
+    ws = w[o]
+    cut = np.flatnonzero((ws[1:] != ws[:-1]).any(axis=1)) + 1
+    return [np.sort(g) for g in np.split(o, cut)]
+
+
+def _lfs_pattern(
+    feat: _Features,
+    xs: np.ndarray,
+    order: np.ndarray,
+    out: np.ndarray,
+    start: np.ndarray,
+    end: np.ndarray,
+    table: np.ndarray,
+    pattern: np.ndarray,
+    done: int,
+    m: int,
+) -> int:
+    """Local feature size at the points of quadtree cells that share an incidence pattern.
+
+    The cells (sorted positions [start, end) of the points ``xs``) have the features of the
+    rows of ``table`` (C, k), in ascending order of index; ``pattern`` is the number c of
+    corners among them (the first c columns) followed by the :meth:`_Features.non_incident`
+    mask of the pairs, the same for every row. For each point x the result
+    ``min over non-incident pairs (f, g) of max(|x − f|, |x − g|)`` is written to
+    ``out[order[positions]]``: per feature f the minimum of |x − g| over the later features
+    g not incident to f, its maximum with |x − f|, and the minimum of those (a rearrangement
+    of exact minima and maxima of the same distances, so the same value as over all pairs).
+    The distances are :meth:`_Features.distance`'s, feature by feature; a corner's is
+    ``hypot`` of the coordinate differences, which is what that formula gives for a
+    zero-length segment. Returns ``done`` plus the number of points.
+    """
+    k = table.shape[1]
+    nc = int(pattern[0])
+    iu, ju = np.triu_indices(k, 1)
+    ni = pattern[1:].astype(bool)
+    later = [ju[ni & (iu == i)] for i in range(k)]
+    used = np.unique(np.r_[iu[ni], ju[ni]])
+    # per-cell feature data, one contiguous array per column
+    fx, fy = feat.fx[table], feat.fy[table]
+    fdx, fdy, fdd = feat.fdx[table], feat.fdy[table], feat.fdd[table]
+    cols = {
+        j: (fx[:, j].copy(), fy[:, j].copy(), fdx[:, j].copy(), fdy[:, j].copy(), fdd[:, j].copy())
+        for j in used
+    }
+    pos = _ranges(start, end)
+    row = np.repeat(np.arange(start.size), end - start)
+    for i in range(0, pos.size, _LFS_CHUNK):
+        p, r = pos[i : i + _LFS_CHUNK], row[i : i + _LFS_CHUNK]
+        x = xs[p]
+        xr, xi = x.real.copy(), x.imag.copy()
+        d: dict[int, np.ndarray] = {}
+        for j in used:
+            cx, cy, cdx, cdy, cdd = cols[j]
+            wx = xr - cx[r]
+            wy = xi - cy[r]
+            if j >= nc:  # a side: the nearest point of the segment, as _Features.distance
+                sx, sy = cdx[r], cdy[r]
+                t = wx * sx
+                t += wy * sy
+                t /= cdd[r]
+                np.clip(t, 0.0, 1.0, out=t)
+                sx *= t
+                sy *= t
+                wx -= sx
+                wy -= sy
+            d[j] = np.hypot(wx, wy, out=wx)
+        best = np.full(p.size, np.inf)
+        for f, gs in enumerate(later):
+            if gs.size == 0:
+                continue
+            near = d[gs[0]].copy()
+            for g in gs[1:]:
+                np.minimum(near, d[g], out=near)
+            np.maximum(near, d[f], out=near)
+            np.minimum(best, near, out=best)
+        out[order[p]] = best
+        done += p.size
+        checkpoint(0.4 + 0.6 * done / m)
+    return done
 
 
 @dataclass(frozen=True, eq=False)
