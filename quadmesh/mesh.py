@@ -895,15 +895,28 @@ class QuadMesh:
         return np.column_stack([keys // self.n_vertices, keys % self.n_vertices]), counts
 
     # ------------------------------------------------------------------ quality
-    def _exempt_mask(self, ang: np.ndarray, corner_vertices: np.ndarray | None) -> np.ndarray:
-        """(Q, 4) mask of original angles: unsplit corners (vertex in one quad) below 60°."""
-        valence = np.bincount(self.quads.ravel(), minlength=self.n_vertices)
-        unsplit = valence[self.quads] == 1
-        if corner_vertices is not None:
-            is_corner = np.zeros(self.n_vertices, dtype=bool)
-            is_corner[corner_vertices[corner_vertices >= 0]] = True
-            unsplit &= is_corner[self.quads]
-        return unsplit & (ang < ANGLE_MIN)
+    def _exempt_mask(
+        self,
+        ang: np.ndarray,
+        corner_vertices: np.ndarray | None,
+        valence: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(Q, 4) mask of original angles: unsplit corners (vertex in one quad; with
+        ``corner_vertices``, one of those) below 60°. ``valence``: the number of quad corners
+        at each vertex, when already counted. Only the corners below 60° are looked up."""
+        out = ang < ANGLE_MIN
+        qi, ki = np.nonzero(out)
+        if qi.size:
+            if valence is None:
+                valence = np.bincount(self.quads.ravel(), minlength=self.n_vertices)
+            v = self.quads[qi, ki]
+            unsplit = valence[v] == 1
+            if corner_vertices is not None:
+                is_corner = np.zeros(self.n_vertices, dtype=bool)
+                is_corner[corner_vertices[corner_vertices >= 0]] = True
+                unsplit &= is_corner[v]
+            out[qi[~unsplit], ki[~unsplit]] = False
+        return out
 
     def new_angle_mask(self, polygon: object | None = None) -> np.ndarray:
         """(Q, 4) mask of the *new* corner angles: all corners except an unsplit original
@@ -995,8 +1008,10 @@ class QuadMesh:
         angle_tol: float,
         origin: complex = 0j,
         ukeys: np.ndarray | None = None,
+        exempt: np.ndarray | None = None,
     ) -> QualityReport:
-        exempt = self._exempt_mask(ang, corners)
+        if exempt is None:
+            exempt = self._exempt_mask(ang, corners)
         new = ang[~exempt]
         # an angle within the fixed tolerance of a bin edge counts as on it (a right angle
         # read 89.99999999999° is in the 90° bin with its neighbours), and 60°/120° belong to
@@ -1037,34 +1052,48 @@ class QuadMesh:
 
     # ------------------------------------------------------------------ verification
     def _edge_analysis(self) -> dict:
-        """Sorted directed and undirected edge keys (key = a * V + b), undirected counts, and
-        the free (boundary) half-edges (a, b) oriented as in their quad.
+        """Undirected edge keys (key = a * V + b with a < b, ascending) with the number of
+        quads of each, the free (boundary) half-edges (a, b) oriented as in their quad (in
+        the order of their keys), and the directed keys that occur more than once (ascending).
 
-        Two plain sorts instead of an argsort: a conforming mesh has every directed edge once
-        and every undirected edge at most twice (Theorem 1.1's mesh is a cell complex)."""
+        One plain sort of the undirected keys with the direction in the lowest bit (0 when
+        the quad runs from the smaller index to the larger): equal undirected keys are
+        adjacent, a directed edge used twice is a repeated value, and a free edge's bit is its
+        direction."""
         nv = self.n_vertices
         a = self.quads.ravel()
         b = self.quads[:, _NEXT].ravel()
-        directed = a * nv + b
-        sd = np.sort(directed)
-        su = np.sort(np.minimum(a, b) * nv + np.maximum(a, b))
+        if nv < 1 << 31:  # 2 * V**2 fits in int64
+            key = np.minimum(a, b) * nv
+            key += np.maximum(a, b)
+            key <<= 1
+            key |= a > b
+            key.sort()
+            su = key >> 1
+            down = (key & 1).astype(bool)
+            rep = key[1:][key[1:] == key[:-1]]
+            rep_u, rep_down = rep >> 1, (rep & 1).astype(bool)
+            rep_lo, rep_hi = np.divmod(rep_u, nv)
+            rep_d = np.unique(np.where(rep_down, rep_hi * nv + rep_lo, rep_u))
+        else:  # the directed keys sorted separately
+            su = np.sort(np.minimum(a, b) * nv + np.maximum(a, b))
+            sd = np.sort(a * nv + b)
+            rep_d = np.unique(sd[1:][sd[1:] == sd[:-1]])
+            down = None
         start = np.flatnonzero(np.r_[True, su[1:] != su[:-1]])
         counts = np.diff(np.r_[start, su.size])
         ukeys = su[start]
-        single = ukeys[counts == 1]
-        lo, hi = single // nv, single % nv
-        pos = np.searchsorted(sd, single)
-        fwd = sd[np.minimum(pos, sd.size - 1)] == single
+        one = counts == 1
+        lo, hi = np.divmod(ukeys[one], nv)
+        if down is None:
+            single = ukeys[one]
+            pos = np.searchsorted(sd, single)
+            fwd = sd[np.minimum(pos, sd.size - 1)] == single
+        else:
+            fwd = ~down[start[one]]
         ba = np.where(fwd, lo, hi)
         bb = np.where(fwd, hi, lo)
-        return {
-            "directed": directed,
-            "sorted_directed": sd,
-            "ukeys": ukeys,
-            "counts": counts,
-            "ba": ba,
-            "bb": bb,
-        }
+        return {"ukeys": ukeys, "counts": counts, "ba": ba, "bb": bb, "repeated_directed": rep_d}
 
     def _match_corners(
         self, poly: Polygon, ba: np.ndarray | None = None, bb: np.ndarray | None = None
@@ -1147,7 +1176,14 @@ class QuadMesh:
         e = c[:, _NEXT] - c
         ang = _angles_from_edges(e)
         areas = local_signed_areas(c)
-        min_edge = np.abs(e).min(axis=1)
+        # quads with an edge of length |e| <= short; |e| = hypot(re, im) (rounded faithfully)
+        # is at least max(|re|, |im|), so only edges with both components within short can be
+        short = 1e-14 * diam
+        near = np.abs(e.real) <= short
+        near &= np.abs(e.imag) <= short
+        near = np.flatnonzero(near.any(axis=1))
+        short_edge = np.zeros(q.shape[0], dtype=bool)
+        short_edge[near] = np.abs(e[near]).min(axis=1) <= short
         del c, e
         checkpoint(0.2)
 
@@ -1165,15 +1201,14 @@ class QuadMesh:
                 f"degenerate: {rep.size} quads repeat a vertex, "
                 f"e.g. quad {rep[0]} = {q[rep[0]].tolist()}"
             )
-        used = np.zeros(self.n_vertices, dtype=bool)
-        used[q.ravel()] = True
-        if not used.all():
-            unused = np.flatnonzero(~used)
+        valence = np.bincount(q.ravel(), minlength=self.n_vertices)
+        if not valence.all():
+            unused = np.flatnonzero(valence == 0)
             warnings.append(f"{unused.size} vertices belong to no quad, e.g. vertex {unused[0]}")
         problems += self._coincident(coincident_rtol * diam, origin)
         checkpoint(0.4)
         # --- orientation, convexity, degeneracy
-        degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | (min_edge <= 1e-14 * diam)
+        degenerate = (np.abs(areas) <= (1e-14 * diam) ** 2) | short_edge
         flipped = (areas < 0) & ~degenerate
         if flipped.any():
             i = np.flatnonzero(flipped)
@@ -1211,11 +1246,13 @@ class QuadMesh:
                 f"overlap: {many.size} edges lie in more than two quads, e.g. edge "
                 f"({k // nv}, {k % nv}) in {counts[many[0]]} quads"
             )
-        sd = ed["sorted_directed"]
-        rep_d = np.unique(sd[1:][sd[1:] == sd[:-1]])
+        rep_d = ed["repeated_directed"]
+        directed = None
+        if many.size or rep_d.size:
+            directed = q.ravel() * nv + q[:, _NEXT].ravel()
         if rep_d.size:
             k = rep_d[0]
-            qi = np.flatnonzero(ed["directed"] == k) // 4
+            qi = np.flatnonzero(directed == k) // 4
             problems.append(
                 f"overlap: {rep_d.size} edges are used twice in the same direction (overlapping "
                 f"or flipped quads), e.g. edge ({k // nv}, {k % nv}) in quads "
@@ -1226,7 +1263,7 @@ class QuadMesh:
             bad_keys = np.r_[ukeys[many], rep_d]
             a_, b_ = bad_keys // nv, bad_keys % nv
             und = np.r_[bad_keys, b_ * nv + a_]
-            sus = np.unique(np.flatnonzero(np.isin(ed["directed"], und)) // 4)
+            sus = np.unique(np.flatnonzero(np.isin(directed, und)) // 4)
             qs = np.sort(q[sus], axis=1)
             _, first_idx, inv_q, cnt_q = np.unique(
                 qs, axis=0, return_index=True, return_inverse=True, return_counts=True
@@ -1277,7 +1314,7 @@ class QuadMesh:
 
         # --- angles
         checkpoint(0.9)
-        exempt = self._exempt_mask(ang, corner_v)
+        exempt = self._exempt_mask(ang, corner_v, valence)
         bad = ((ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)) & ~exempt
         if bad.any():
             bq, bk = np.nonzero(bad)
@@ -1310,6 +1347,7 @@ class QuadMesh:
             areas,
             origin,
             ukeys,
+            exempt,
         )
 
     def _coincident(self, r: float, origin: complex = 0j) -> list[str]:
@@ -1347,6 +1385,7 @@ class QuadMesh:
         areas: np.ndarray | None = None,
         origin: complex = 0j,
         ukeys: np.ndarray | None = None,
+        exempt: np.ndarray | None = None,
     ) -> VerificationReport:
         if ang is None:
             with np.errstate(invalid="ignore"):
@@ -1356,7 +1395,7 @@ class QuadMesh:
             ok=not problems,
             problems=tuple(problems),
             warnings=tuple(warnings),
-            quality=self._quality(ang, areas, poly, corner_v, angle_tol, origin, ukeys),
+            quality=self._quality(ang, areas, poly, corner_v, angle_tol, origin, ukeys, exempt),
             n_interior_edges=n_interior,
             n_boundary_edges=n_boundary,
             area_error=area_err,
