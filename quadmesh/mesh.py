@@ -130,6 +130,51 @@ def _nearest_sides(tree: object, pz: np.ndarray, p: np.ndarray, tol: float) -> n
     return side
 
 
+def _close_candidates(xy: np.ndarray, r: float) -> np.ndarray:
+    """Ascending indices of the points ``xy`` (N, 2) (finite) that may lie within ``r`` of
+    another point; every point that does is among them.
+
+    Three square grids of cell h = 3 (2r + 16 ε s) (s the largest coordinate magnitude),
+    shifted by 0, h/3 and 2h/3 along both axes: a computed cell index
+    ``floor((x − lo) · (1/h) + shift)`` is a non-decreasing function of the coordinate
+    (rounded subtraction, product, sum and floor are monotone) whose steps lie within a few
+    ε (s + h) of the exact grid lines, so along each axis the steps of the
+    three grids are at least h/3 − 8 ε (s + h) > r apart, and two points within r of each
+    other (in either coordinate) are separated by the steps of at most one grid in x and of
+    one grid in y: they share a cell of at least one grid. A point is kept when its cell (a
+    hash of the two indices, equal for equal cells) holds another point in some grid. Three
+    sorts of N integers instead of a k-d tree of all the points.
+    """
+    n = xy.shape[0]
+    everything = np.arange(n)
+    if n < 2:
+        return everything
+    lo = xy.min(axis=0)
+    s = float(np.abs(xy).max())
+    h = 3.0 * (2.0 * r + 16.0 * np.finfo(float).eps * s)
+    span = float((xy.max(axis=0) - lo).max())
+    if not (np.isfinite(h) and h > 0 and (span + h) / h < 2.0**60):
+        return everything
+    near = np.zeros(n, dtype=bool)
+    # coordinates in cells, >= 0 (so that the integer conversion is the floor)
+    ux = xy[:, 0] - lo[0]
+    ux *= 1.0 / h
+    uy = xy[:, 1] - lo[1]
+    uy *= 1.0 / h
+    for shift in (0.0, 1.0 / 3.0, 2.0 / 3.0):
+        ix = (ux + shift).astype(np.int64)
+        iy = (uy + shift).astype(np.int64)
+        ix *= np.int64(-7046029254386353131)  # wraps: equal cells give equal keys
+        ix += iy
+        key = np.sort(ix)
+        shared = key[1:][key[1:] == key[:-1]]
+        if shared.size:
+            shared = np.unique(shared)
+            at = np.minimum(np.searchsorted(shared, ix), shared.size - 1)
+            near |= shared[at] == ix
+    return np.flatnonzero(near)
+
+
 def _angles_from_edges(e: np.ndarray) -> np.ndarray:
     """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
     corner k + 1), as :func:`local_quad_angles_deg` measures them."""
@@ -1351,17 +1396,26 @@ class QuadMesh:
         )
 
     def _coincident(self, r: float, origin: complex = 0j) -> list[str]:
-        """Problems for distinct vertices closer than ``r`` (coincident or nearly so)."""
+        """Problems for distinct vertices closer than ``r`` (coincident or nearly so).
+
+        The pairs are those of :meth:`scipy.spatial.cKDTree.query_pairs` within ``r``, among
+        the vertices that :func:`_close_candidates` does not rule out (every vertex within
+        ``r`` of another is kept); the example is the closest pair, the first in (i, j)
+        order among equally close ones."""
         from scipy.spatial import cKDTree
 
         if self.n_vertices < 2:
             return []
-        # an unbalanced tree without shrunk nodes builds faster (0.28 s for the 1e6
-        # vertices of noisy_circle_1000) and finds the same pairs
-        tree = cKDTree(self.vertices, balanced_tree=False, compact_nodes=False)
+        cand = _close_candidates(self.vertices, r)
+        if cand.size < 2:
+            return []
+        # an unbalanced tree without shrunk nodes builds faster and finds the same pairs
+        tree = cKDTree(self.vertices[cand], balanced_tree=False, compact_nodes=False)
         pairs = tree.query_pairs(r, output_type="ndarray")
         if pairs.size == 0:
             return []
+        pairs = cand[pairs]
+        pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
         d = np.abs(self._z[pairs[:, 0]] - self._z[pairs[:, 1]])
         k = int(np.argmin(d))
         i, j = int(pairs[k, 0]), int(pairs[k, 1])

@@ -341,3 +341,28 @@ def test_nearest_sides_match_the_tree_query() -> None:
         want = tree.query_nearest(shapely.points(p.real, p.imag), all_matches=False)[1]
         got = _nearest_sides(tree, pz, p, 1e-9 * poly.diameter)
         assert np.array_equal(got, want), name
+
+
+def test_close_candidates_keep_every_close_pair() -> None:
+    """The grid filter of the coincident-vertex check keeps both vertices of every pair that
+    a k-d tree of all the points finds within r: planted pairs at distances 0, r/2, r and
+    r (1 ± 1e-12), exact duplicates, near the origin and 1e6 or 3e8 away from it."""
+    from scipy.spatial import cKDTree
+
+    from quadmesh.mesh import _close_candidates
+
+    rng = np.random.default_rng(5)
+    for trial in range(60):
+        off = (0.0, 1e6, -3e8, 1e-3)[trial % 4]
+        scale = (1.0, 1e-6, 1e3)[trial % 3]
+        r = 1e-9 * scale * (1.0, 1e-3, 1e3)[trial % 3]
+        v = rng.random((2000, 2)) * scale + off
+        k = rng.integers(0, v.shape[0], 50)
+        a = rng.uniform(0.0, 2 * np.pi, 50)
+        d = r * rng.choice([0.0, 0.5, 1 - 1e-12, 1.0, 1 + 1e-12, 2.0], 50)
+        v = np.r_[v, v[k] + np.c_[np.cos(a), np.sin(a)] * d[:, None]]
+        v[rng.integers(0, v.shape[0], 10)] = v[rng.integers(0, v.shape[0], 10)]
+        pairs = cKDTree(v).query_pairs(r, output_type="ndarray")
+        kept = _close_candidates(v, r)
+        assert np.all(np.diff(kept) > 0)
+        assert np.isin(pairs.ravel(), kept).all()
