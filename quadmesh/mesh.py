@@ -216,6 +216,13 @@ _LFS_FEW = 2
 _LFS_BITS = 20
 
 
+def _sorted_unique(a: np.ndarray) -> np.ndarray:
+    """The distinct values of the 1-D integer array ``a`` in ascending order (as
+    :func:`numpy.unique`, by one sort)."""
+    a = np.sort(a)
+    return a[np.r_[True, a[1:] != a[:-1]]] if a.size else a
+
+
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order codes: the bits of ``ix`` and ``iy`` (int64, non-negative, below
     2**_LFS_BITS) interleaved, x in the even bits (``ix`` and ``iy`` are overwritten)."""
@@ -317,7 +324,7 @@ class _Features:
         )
         # the two sides at the nearest corner are within r whatever the rounding
         ar = np.arange(m)
-        key = np.unique(np.r_[ii * n + jj, ar * n + iv[:, 0], ar * n + (iv[:, 0] - 1) % n])
+        key = _sorted_unique(np.r_[ii * n + jj, ar * n + iv[:, 0], ar * n + (iv[:, 0] - 1) % n])
         ii, jj = key // n, key % n
         dist = self.distance(x[ii], (n + jj)[:, None])[:, 0]
         order = np.lexsort((dist, ii))
@@ -1140,6 +1147,14 @@ class QuadMesh:
         bb = np.where(fwd, hi, lo)
         return {"ukeys": ukeys, "counts": counts, "ba": ba, "bb": bb, "repeated_directed": rep_d}
 
+    def _free_vertices(self, ba: np.ndarray, bb: np.ndarray) -> np.ndarray:
+        """Ascending indices of the vertices of the free edges (a, b) (what
+        ``np.unique(np.r_[ba, bb])`` gives, from a mask over the vertices)."""
+        mark = np.zeros(self.n_vertices, dtype=bool)
+        mark[ba] = True
+        mark[bb] = True
+        return np.flatnonzero(mark)
+
     def _match_corners(
         self, poly: Polygon, ba: np.ndarray | None = None, bb: np.ndarray | None = None
     ) -> tuple[np.ndarray, float]:
@@ -1152,7 +1167,7 @@ class QuadMesh:
         if ba is None or bb is None:
             ed = self._edge_analysis()
             ba, bb = ed["ba"], ed["bb"]
-        cand = np.unique(np.r_[ba, bb])
+        cand = self._free_vertices(ba, bb)
         out = np.full(poly.n, -1, dtype=np.int64)
         if cand.size == 0:
             return out, tol
@@ -1326,7 +1341,7 @@ class QuadMesh:
         n_boundary = int(ba.size)
 
         # --- cracks: distinct boundary vertices at the same position
-        fv = np.unique(np.r_[ba, bb])
+        fv = self._free_vertices(ba, bb)
         _, inv, cnt = np.unique(z[fv], return_inverse=True, return_counts=True)
         dup = cnt[inv.ravel()] > 1
         if dup.any():
