@@ -223,21 +223,29 @@ def _sorted_unique(a: np.ndarray) -> np.ndarray:
     return a[np.r_[True, a[1:] != a[:-1]]] if a.size else a
 
 
+def _spread_table(bits: int) -> np.ndarray:
+    """The integers below 2**bits with their bits moved to the even positions."""
+    v = np.arange(1 << bits, dtype=np.int64)
+    out = np.zeros_like(v)
+    for i in range(bits):
+        out |= ((v >> i) & 1) << (2 * i)
+    return out
+
+
+_SPREAD10 = _spread_table(10)
+
+
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order codes: the bits of ``ix`` and ``iy`` (int64, non-negative, below
-    2**_LFS_BITS) interleaved, x in the even bits (``ix`` and ``iy`` are overwritten)."""
+    2**_LFS_BITS = 2**20) interleaved, x in the even bits; ten bits at a time from a table
+    (``ix`` and ``iy`` are overwritten)."""
 
-    def spread(v: np.ndarray) -> np.ndarray:  # in place
-        for s, mask in (
-            (16, 0x0000FFFF0000FFFF),
-            (8, 0x00FF00FF00FF00FF),
-            (4, 0x0F0F0F0F0F0F0F0F),
-            (2, 0x3333333333333333),
-            (1, 0x5555555555555555),
-        ):
-            v |= v << s
-            v &= mask
-        return v
+    def spread(v: np.ndarray) -> np.ndarray:
+        high = _SPREAD10[v >> 10]
+        high <<= 20
+        v &= 1023
+        high |= _SPREAD10[v]
+        return high
 
     code = spread(iy)
     code <<= 1
@@ -1022,10 +1030,10 @@ class QuadMesh:
             a = self.quads.ravel()
             b = self.quads[:, _NEXT].ravel()
             ukeys = np.unique(np.minimum(a, b) * nv + np.maximum(a, b))
-        edges = np.column_stack([ukeys // nv, ukeys % nv])
-        za, zb = self._z[edges[:, 0]], self._z[edges[:, 1]]
+        lo, hi = np.divmod(ukeys, nv)
+        za, zb = self._z[lo], self._z[hi]
         d = zb - za
-        return edges, np.abs(d), local_feature_size(poly, za + 0.5 * d)
+        return np.column_stack([lo, hi]), np.abs(d), local_feature_size(poly, za + 0.5 * d)
 
     def _size_fields(self, poly: Polygon | None, origin: complex, ukeys: np.ndarray | None) -> dict:
         """The edge / local feature size fields of :class:`QualityReport` (empty when there
@@ -1064,17 +1072,34 @@ class QuadMesh:
     ) -> QualityReport:
         if exempt is None:
             exempt = self._exempt_mask(ang, corners)
-        new = ang[~exempt]
+        any_exempt = bool(exempt.any())
+        # the new angles (in any order: only their extremes and histogram are taken)
+        new = ang[~exempt] if any_exempt else ang
         # an angle within the fixed tolerance of a bin edge counts as on it (a right angle
         # read 89.99999999999° is in the 90° bin with its neighbours), and 60°/120° belong to
         # the bins inside the range
-        edge = np.round(new / 5.0) * 5.0
-        binned = np.where(np.abs(new - edge) <= angle_tol, edge, new)
-        binned = np.where(np.abs(binned - 120.0) <= angle_tol, 120.0 - 1e-9, binned)
+        binned = new / 5.0
+        np.round(binned, out=binned)
+        binned *= 5.0  # the nearest bin edge
+        off = new - binned
+        np.abs(off, out=off)
+        np.copyto(binned, new, where=~(off <= angle_tol))
+        np.subtract(binned, 120.0, out=off)
+        np.abs(off, out=off)
+        np.copyto(binned, 120.0 - 1e-9, where=off <= angle_tol)
+        del off
         hist, edges = np.histogram(binned, bins=36, range=(0.0, 180.0))
         bad = (ang < ANGLE_MIN - angle_tol) | (ang > ANGLE_MAX + angle_tol)
-        bad &= ~exempt
-        dev = np.where(exempt, 0.0, np.abs(ang - 90.0)).max(axis=1) if ang.size else ang[:, 0]
+        if any_exempt:
+            bad &= ~exempt
+        if ang.size:
+            dev = ang - 90.0
+            np.abs(dev, out=dev)
+            if any_exempt:
+                dev[exempt] = 0.0
+            dev = dev.max(axis=1)
+        else:
+            dev = ang[:, 0]
         k = min(10, dev.size)
         if k:
             worst = np.argpartition(-dev, k - 1)[:k]
