@@ -105,8 +105,91 @@ def _nearest_sides(tree: object, pz: np.ndarray, p: np.ndarray, tol: float) -> n
     single one takes it (every other side is farther than ``tol``); a point with several
     takes the nearest of them by the exact point–segment distance; only points farther than
     ``tol`` from every side (free edges off the boundary: a broken mesh) ask the tree for
-    their nearest side one by one.
+    their nearest side one by one. Points whose answer is certain from a grid of the sides
+    (:func:`_sure_sides`: one side clearly within ``tol``, every other clearly farther) take
+    it without the tree; the answer is the same.
     """
+    side = _sure_sides(pz, p, tol)
+    rest = np.flatnonzero(side < 0)
+    if rest.size:
+        side[rest] = _nearest_sides_by_tree(tree, pz, p[rest], tol)
+    return side
+
+
+def _sure_sides(pz: np.ndarray, p: np.ndarray, tol: float) -> np.ndarray:
+    """The side of the polygon with corners ``pz`` that :func:`_nearest_sides` gives each
+    point of ``p``, where it is certain without the tree; -1 elsewhere.
+
+    The sides are put in the cells of a grid (each in the cells its bounding box, grown by
+    tol + μ, meets), and each point is measured against the sides of its cell only; μ =
+    64 ε (s + ℓ) (s the largest coordinate magnitude, ℓ the longest side) bounds the
+    rounding of both this point–segment distance and the tree's (GEOS). A point gets its side
+    when exactly one is within tol − μ and no other within tol + μ: then the tree's
+    ``dwithin`` query finds that side alone. Points with none, several or a distance within
+    μ of tol are left to the tree (-1), as are all points when the grid would be large
+    (sides much longer than the typical one)."""
+    m, n = p.size, pz.size
+    out = np.full(m, -1, dtype=np.intp)
+    if m == 0 or n < 3:
+        return out
+    a = pz
+    b = np.roll(pz, -1)
+    d = b - a
+    length = np.abs(d)
+    s = max(float(np.abs(pz).max()), float(np.abs(p).max()))
+    mu = 64.0 * np.finfo(float).eps * (s + float(length.max()))
+    grow = tol + mu
+    lo_x = min(float(pz.real.min()), float(p.real.min())) - 2 * grow
+    lo_y = min(float(pz.imag.min()), float(p.imag.min())) - 2 * grow
+    span = max(float(pz.real.max()), float(p.real.max())) - lo_x + 2 * grow
+    span = max(span, max(float(pz.imag.max()), float(p.imag.max())) - lo_y + 2 * grow)
+    cell = max(float(np.median(length)), span / 4096.0)
+    if not (np.isfinite(cell) and cell > 0 and np.isfinite(mu)):
+        return out
+    inv = 1.0 / cell
+
+    def index(v: np.ndarray, lo: float) -> np.ndarray:  # monotone in v
+        i = v - lo
+        i *= inv
+        return np.floor(i).astype(np.int64)
+
+    ny = int(span * inv) + 2
+    x0 = index(np.minimum(a.real, b.real) - grow, lo_x)
+    x1 = index(np.maximum(a.real, b.real) + grow, lo_x)
+    y0 = index(np.minimum(a.imag, b.imag) - grow, lo_y)
+    y1 = index(np.maximum(a.imag, b.imag) + grow, lo_y)
+    nx_s, ny_s = x1 - x0 + 1, y1 - y0 + 1
+    cnt = nx_s * ny_s
+    total = int(cnt.sum())
+    if total > 8 * (n + m):
+        return out
+    # the (cell, side) entries, sorted by cell
+    sid = np.repeat(np.arange(n), cnt)
+    o = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    key = (x0[sid] + o % nx_s[sid]) * ny + (y0[sid] + o // nx_s[sid])
+    srt = np.argsort(key, kind="stable")
+    key, sid = key[srt], sid[srt]
+    pk = index(p.real, lo_x) * ny + index(p.imag, lo_y)
+    first = np.searchsorted(key, pk, side="left")
+    last = np.searchsorted(key, pk, side="right")
+    pi = np.repeat(np.arange(m), last - first)
+    js = sid[_ranges(first, last)]
+    # point–segment distances
+    w = p[pi] - a[js]
+    dj = d[js]
+    t = np.clip((w * np.conj(dj)).real / (dj * np.conj(dj)).real, 0.0, 1.0)
+    dist = np.abs(w - t * dj)
+    within = dist <= tol - mu
+    unsure = ~within & (dist <= tol + mu)
+    n_within = np.bincount(pi[within], minlength=m)
+    n_unsure = np.bincount(pi[unsure], minlength=m)
+    ok = within & ((n_within == 1) & (n_unsure == 0))[pi]
+    out[pi[ok]] = js[ok]
+    return out
+
+
+def _nearest_sides_by_tree(tree: object, pz: np.ndarray, p: np.ndarray, tol: float) -> np.ndarray:
+    """:func:`_nearest_sides` by the tree's queries (see there)."""
     import shapely
 
     pts = shapely.points(p.real, p.imag)
