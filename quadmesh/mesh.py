@@ -261,8 +261,11 @@ def _close_candidates(xy: np.ndarray, r: float) -> np.ndarray:
 def _angles_from_edges(e: np.ndarray) -> np.ndarray:
     """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
     corner k + 1), as :func:`local_quad_angles_deg` measures them."""
-    ang = np.angle(-e[:, _PREV] * np.conj(e))
-    ang[ang < 0] += 2 * np.pi
+    z = e[:, _PREV]
+    np.negative(z, out=z)
+    z *= np.conj(e)
+    ang = np.arctan2(z.imag, z.real)  # np.angle(z)
+    np.add(ang, 2 * np.pi, out=ang, where=ang < 0)
     return np.degrees(ang, out=ang)
 
 

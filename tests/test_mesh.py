@@ -381,7 +381,7 @@ def test_sure_sides_agree_with_the_tree_at_the_tolerance() -> None:
     rng = np.random.default_rng(7)
     for name in ("l_shape", "comb", "star_30", "slit_355deg"):
         for shift in (0j, 1e6 + 1e6j):
-            poly = validate_polygon(load_example(name) + [shift.real, shift.imag])
+            poly = validate_polygon(load_example(name) + np.array([shift.real, shift.imag]))
             pz, pv = poly.z, poly.vertices
             tree = shapely.STRtree(
                 shapely.linestrings(np.stack([pv, np.roll(pv, -1, axis=0)], axis=1))
