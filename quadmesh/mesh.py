@@ -232,17 +232,19 @@ def _close_candidates(xy: np.ndarray, r: float) -> np.ndarray:
     everything = np.arange(n)
     if n < 2:
         return everything
-    lo = xy.min(axis=0)
-    s = float(np.abs(xy).max())
+    # column by column (a reduction over the rows of an (N, 2) array is slow)
+    x, y = xy[:, 0], xy[:, 1]
+    lo_x, hi_x, lo_y, hi_y = float(x.min()), float(x.max()), float(y.min()), float(y.max())
+    s = max(abs(lo_x), abs(hi_x), abs(lo_y), abs(hi_y))
     h = 3.0 * (2.0 * r + 16.0 * np.finfo(float).eps * s)
-    span = float((xy.max(axis=0) - lo).max())
+    span = max(hi_x - lo_x, hi_y - lo_y)
     if not (np.isfinite(h) and h > 0 and (span + h) / h < 2.0**60):
         return everything
     near = np.zeros(n, dtype=bool)
     # coordinates in cells, >= 0 (so that the integer conversion is the floor)
-    ux = xy[:, 0] - lo[0]
+    ux = x - lo_x
     ux *= 1.0 / h
-    uy = xy[:, 1] - lo[1]
+    uy = y - lo_y
     uy *= 1.0 / h
     for shift in (0.0, 1.0 / 3.0, 2.0 / 3.0):
         ix = (ux + shift).astype(np.int64)
@@ -1350,9 +1352,9 @@ class QuadMesh:
         # quads with an edge of length |e| <= short; |e| = hypot(re, im) (rounded faithfully)
         # is at least max(|re|, |im|), so only edges with both components within short can be
         short = 1e-14 * diam
-        near = np.abs(e.real) <= short
-        near &= np.abs(e.imag) <= short
-        near = np.flatnonzero(near.any(axis=1))
+        small = np.abs(e.real) <= short
+        small &= np.abs(e.imag) <= short
+        near = np.flatnonzero(small[:, 0] | small[:, 1] | small[:, 2] | small[:, 3])
         short_edge = np.zeros(q.shape[0], dtype=bool)
         short_edge[near] = np.abs(e[near]).min(axis=1) <= short
         del c, e
