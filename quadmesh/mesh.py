@@ -263,10 +263,12 @@ def _close_candidates(xy: np.ndarray, r: float) -> np.ndarray:
 def _angles_from_edges(e: np.ndarray) -> np.ndarray:
     """(Q, 4) corner angles in degrees from the (Q, 4) edge vectors (edge k from corner k to
     corner k + 1), as :func:`local_quad_angles_deg` measures them."""
-    z = e[:, _PREV]
-    np.negative(z, out=z)
-    z *= np.conj(e)
-    ang = np.arctan2(z.imag, z.real)  # np.angle(z)
+    # column by column into a Fortran-ordered array (its reductions over the four corners
+    # of each quad are fast)
+    ang = np.empty(e.shape, order="F")
+    for k in range(4):
+        z = -e[:, k - 1] * np.conj(e[:, k])
+        np.arctan2(z.imag, z.real, out=ang[:, k])  # np.angle(z)
     np.add(ang, 2 * np.pi, out=ang, where=ang < 0)
     return np.degrees(ang, out=ang)
 
@@ -1346,7 +1348,9 @@ class QuadMesh:
         # _edge_vectors() give)
         c = self._corners()
         c = c - c[:, :1]
-        e = c[:, _NEXT] - c
+        e = np.empty_like(c)  # c[:, _NEXT] - c, by slices
+        np.subtract(c[:, 1:], c[:, :3], out=e[:, :3])
+        np.subtract(c[:, 0], c[:, 3], out=e[:, 3])
         ang = _angles_from_edges(e)
         areas = local_signed_areas(c)
         # quads with an edge of length |e| <= short; |e| = hypot(re, im) (rounded faithfully)
