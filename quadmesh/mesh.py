@@ -1228,36 +1228,41 @@ class QuadMesh:
         adjacent, a directed edge used twice is a repeated value, and a free edge's bit is its
         direction."""
         nv = self.n_vertices
-        a = self.quads.ravel()
-        b = self.quads[:, _NEXT].ravel()
+        q = self.quads
+        a = q.ravel()
+        b = np.empty_like(q)  # q[:, _NEXT], by slices
+        b[:, :3] = q[:, 1:]
+        b[:, 3] = q[:, 0]
+        b = b.ravel()
         if nv < 1 << 31:  # 2 * V**2 fits in int64
             key = np.minimum(a, b) * nv
             key += np.maximum(a, b)
             key <<= 1
             key |= a > b
             key.sort()
-            su = key >> 1
-            down = (key & 1).astype(bool)
             rep = key[1:][key[1:] == key[:-1]]
             rep_u, rep_down = rep >> 1, (rep & 1).astype(bool)
             rep_lo, rep_hi = np.divmod(rep_u, nv)
             rep_d = np.unique(np.where(rep_down, rep_hi * nv + rep_lo, rep_u))
+            # a new undirected key where two neighbours differ in more than the last bit
+            new = np.bitwise_xor(key[1:], key[:-1]) > 1
+            start = np.flatnonzero(np.r_[True, new])
+            ukeys = key[start] >> 1
         else:  # the directed keys sorted separately
             su = np.sort(np.minimum(a, b) * nv + np.maximum(a, b))
             sd = np.sort(a * nv + b)
             rep_d = np.unique(sd[1:][sd[1:] == sd[:-1]])
-            down = None
-        start = np.flatnonzero(np.r_[True, su[1:] != su[:-1]])
-        counts = np.diff(np.r_[start, su.size])
-        ukeys = su[start]
+            start = np.flatnonzero(np.r_[True, su[1:] != su[:-1]])
+            ukeys = su[start]
+        counts = np.diff(np.r_[start, a.size])
         one = counts == 1
         lo, hi = np.divmod(ukeys[one], nv)
-        if down is None:
+        if nv < 1 << 31:
+            fwd = (key[start[one]] & 1) == 0
+        else:
             single = ukeys[one]
             pos = np.searchsorted(sd, single)
             fwd = sd[np.minimum(pos, sd.size - 1)] == single
-        else:
-            fwd = ~down[start[one]]
         ba = np.where(fwd, lo, hi)
         bb = np.where(fwd, hi, lo)
         return {"ukeys": ukeys, "counts": counts, "ba": ba, "bb": bb, "repeated_directed": rep_d}
