@@ -545,8 +545,15 @@ def _lfs_cells(
         side = size / (1 << level)
         cen = (lo_x + (cx + 0.5) * side) + 1j * (lo_y + (cy + 0.5) * side)
         rho = 0.5 * np.sqrt(2.0) * side
-        lfs = feat.exact(cen)
-        ok = rho <= _LFS_CELL_RATIO * lfs
+        # lfs(c) <= the distance to the second-nearest corner (exact() takes the minimum
+        # with it), so a cell with rho above the ratio times that distance is split without
+        # computing lfs(c)
+        lfs = np.full(cen.size, np.inf)
+        near2 = feat.corners.query(np.column_stack([cen.real, cen.imag]), k=3)[0][:, 1]
+        maybe = np.flatnonzero(rho <= _LFS_CELL_RATIO * near2)
+        lfs[maybe] = feat.exact(cen[maybe])
+        ok = np.zeros(cen.size, dtype=bool)
+        ok[maybe] = rho <= _LFS_CELL_RATIO * lfs[maybe]
         kept.append((lo[ok], hi[ok], cen[ok], (lfs[ok] + 2 * rho) * (1 + 1e-9) + slack))
         pre, cx, cy = pre[~ok], cx[~ok], cy[~ok]
     if kept:
