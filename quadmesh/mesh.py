@@ -28,8 +28,10 @@ the numbers a reader of the mesh gets, whatever the quad's size or its distance 
 A mesh stored relative to an origin (:attr:`quadmesh.result.MeshResult.mesh_origin`) is
 verified as stored, against the polygon translated by −origin (``verify(..., origin=...)``).
 
-Everything is vectorised: edges are matched with :func:`numpy.unique` on integer keys, so a
-mesh of two million quads verifies in a few seconds.
+Everything is vectorised: edges are matched by one sort of integer keys, candidate
+coincident vertices and the polygon side of each free edge come from grids (with the k-d tree
+and the STRtree for the few that a grid leaves open), so the 937,355 quads of a 1000-vertex
+star verify in about 1.3 s on one core, the local feature sizes included.
 """
 
 from __future__ import annotations
@@ -586,7 +588,8 @@ def local_feature_size(polygon: object, points: np.ndarray) -> np.ndarray:
     sides are about equally far) or that hold one or two points take the exact search of
     :meth:`_Features.exact`: the three nearest corners and the three nearest sides within
     the second-nearest corner distance (a disk that meets no non-incident pair meets at most
-    one corner and two sides). Vectorised: about a second per million points on one core.
+    one corner and two sides). Vectorised, the cells grouped by their features' incidence
+    pattern (:func:`_lfs_pattern`): about 0.3 s per million points on one core.
 
     Args:
         polygon: anything :func:`~quadmesh.polygon.validate_polygon` accepts.
