@@ -341,3 +341,58 @@ def test_nearest_sides_match_the_tree_query() -> None:
         want = tree.query_nearest(shapely.points(p.real, p.imag), all_matches=False)[1]
         got = _nearest_sides(tree, pz, p, 1e-9 * poly.diameter)
         assert np.array_equal(got, want), name
+
+
+def test_close_candidates_keep_every_close_pair() -> None:
+    """The grid filter of the coincident-vertex check keeps both vertices of every pair that
+    a k-d tree of all the points finds within r: planted pairs at distances 0, r/2, r and
+    r (1 ± 1e-12), exact duplicates, near the origin and 1e6 or 3e8 away from it."""
+    from scipy.spatial import cKDTree
+
+    from quadmesh.mesh import _close_candidates
+
+    rng = np.random.default_rng(5)
+    for trial in range(60):
+        off = (0.0, 1e6, -3e8, 1e-3)[trial % 4]
+        scale = (1.0, 1e-6, 1e3)[trial % 3]
+        r = 1e-9 * scale * (1.0, 1e-3, 1e3)[trial % 3]
+        v = rng.random((2000, 2)) * scale + off
+        k = rng.integers(0, v.shape[0], 50)
+        a = rng.uniform(0.0, 2 * np.pi, 50)
+        d = r * rng.choice([0.0, 0.5, 1 - 1e-12, 1.0, 1 + 1e-12, 2.0], 50)
+        v = np.r_[v, v[k] + np.c_[np.cos(a), np.sin(a)] * d[:, None]]
+        v[rng.integers(0, v.shape[0], 10)] = v[rng.integers(0, v.shape[0], 10)]
+        pairs = cKDTree(v).query_pairs(r, output_type="ndarray")
+        kept = _close_candidates(v, r)
+        assert np.all(np.diff(kept) > 0)
+        assert np.isin(pairs.ravel(), kept).all()
+
+
+def test_sure_sides_agree_with_the_tree_at_the_tolerance() -> None:
+    """The grid shortcut of the free-edge side lookup gives what the tree's ``dwithin``
+    query gives, for points on the sides, off them by tol (1 ± 1e-6), tol (1 ± 1e-13) and
+    2 tol, near corners, and for the same polygons 1e6 away from the origin."""
+    import shapely
+
+    from quadmesh.examples import load_example
+    from quadmesh.mesh import _nearest_sides, _nearest_sides_by_tree
+    from quadmesh.polygon import validate_polygon
+
+    rng = np.random.default_rng(7)
+    for name in ("l_shape", "comb", "star_30", "slit_355deg"):
+        for shift in (0j, 1e6 + 1e6j):
+            poly = validate_polygon(load_example(name) + np.array([shift.real, shift.imag]))
+            pz, pv = poly.z, poly.vertices
+            tree = shapely.STRtree(
+                shapely.linestrings(np.stack([pv, np.roll(pv, -1, axis=0)], axis=1))
+            )
+            tol = 1e-9 * poly.diameter
+            k = rng.integers(0, pz.size, 4000)
+            d = np.roll(pz, -1)[k] - pz[k]
+            t = rng.uniform(0.0, 1.0, k.size)
+            t[:800] = rng.uniform(0.0, 1e-8, 800)
+            off = tol * rng.choice([0.0, 1 - 1e-6, 1 + 1e-6, 1 - 1e-13, 1 + 1e-13, 2.0], k.size)
+            p = pz[k] + t * d + off * rng.choice([-1j, 1j], k.size) * d / np.abs(d)
+            np.testing.assert_array_equal(
+                _nearest_sides(tree, pz, p, tol), _nearest_sides_by_tree(tree, pz, p, tol)
+            )
