@@ -284,7 +284,7 @@ def _nodes(
     return owner, np.repeat(base, m), d.ravel(), W.ravel(), P
 
 
-#: The integrand's far part is summed by expansions (:func:`_far_sums`) for configurations of
+#: The integrand's far part is summed by expansions (:func:`_integrate_far`) for configurations of
 #: at least this many prevertices; below, every node takes the direct sum over all of them.
 FAR_MIN_N = 96
 #: A prevertex is *near* an integral when it lies within FAR_KAPPA times the radius of the
@@ -412,17 +412,18 @@ def _far_coefficients(
             g = slice(g0, min(G, g0 + step))
             k = g.stop - g.start
             dE = cfg.E[gb[g]] - c[g, None]
-            far = np.ones((k, n), dtype=bool)
+            # the entries that are not far: the base (in the weights) and the near ones, a few
+            # per row, by index
             pv = np.flatnonzero(gb[g] < n)
-            far[pv, gb[g][pv]] = False
             ni = near_idx[g]
             nr, nc = np.nonzero(ni >= 0)
-            far[nr, ni[nr, nc]] = False
+            ex_r = np.concatenate([pv, nr])
+            ex_c = np.concatenate([gb[g][pv], ni[nr, nc]])
             # q = R/dE = R·conj(dE)/|dE|² in real arithmetic (complex division is ~3× slower)
             m2 = dE.real * dE.real
             m2 += dE.imag * dE.imag
             inv = np.divide(R[g, None], m2)
-            inv[~far] = 0.0
+            inv[ex_r, ex_c] = 0.0
             q = np.empty_like(dE)
             np.multiply(dE.real, inv, out=q.real)
             np.multiply(dE.imag, inv, out=q.imag)
@@ -432,8 +433,8 @@ def _far_coefficients(
                 lr = np.log(m2, out=m2)
                 B = dE * zc[None, :]
                 la = np.arctan2(B.imag, B.real)
-                lr[~far] = 0.0
-                la[~far] = 0.0
+                lr[ex_r, ex_c] = 0.0
+                la[ex_r, ex_c] = 0.0
                 a[g, 0] = lr @ (0.5 * beta) + 1j * (la @ beta)
                 P = q.copy()
                 a[g, 1] = -(P @ beta_c)
