@@ -80,11 +80,19 @@ MIN_DEPTH_STEP = 0.125
 
 
 #: A polygon whose bounding-box centre lies beyond this many diameters from 0 is meshed
-#: translated to the origin (see :func:`_working_origin`).
+#: translated to the origin (see :func:`_working_origin`): FAR_FROM_ORIGIN for a part cut off
+#: the user's polygon (an arm's body, a bridge's sides: such a part, meshed at its own origin,
+#: cannot be matched to the rest by position), FAR_FROM_ORIGIN_TOP for the user's polygon
+#: itself. At 1 diameter the translation is still exact and halves (or better) the magnitude
+#: of every coordinate, so the rounding of the smallest quads' corners shrinks with it: an
+#: image contour 3 diameters from (0, 0) (scikit-image page, 56 vertices) had a 120° corner of
+#: a quad 3e-9 of its diameter read 120.0000103° in absolute coordinates and is verified
+#: relative to its centre.
 FAR_FROM_ORIGIN = 4.0
+FAR_FROM_ORIGIN_TOP = 1.0
 
 
-def _working_origin(poly: Polygon) -> complex:
+def _working_origin(poly: Polygon, far: float = FAR_FROM_ORIGIN) -> complex:
     """Exact translation that brings a polygon far from 0 to the origin (0 if it is near).
 
     Every stage evaluates plane points as vertex + offset; with coordinates ~1e6 and features
@@ -93,13 +101,15 @@ def _working_origin(poly: Polygon) -> complex:
     the vertices (sizes down to ~1e-8 of the diameter) cannot absorb: a random 40-gon of
     diameter 1.7 at (1e6, −3e6) failed its map checks (round trip 1.1e-9) and, with the
     checks off, gave Carleson triangle angles in [0.55°, 359°]. Per coordinate, the centre c
-    of the bounding box is used when |c| > FAR_FROM_ORIGIN · diameter: then every coordinate x
+    of the bounding box is used when |c| > far · diameter (far ≥ 1): then every coordinate x
     lies in [c/2, 2c], so x − c is exact (Sterbenz) and (x − c) + c gives x back bit for bit.
     """
+    if far < 1.0:
+        raise ValueError(f"far must be at least 1 for an exact translation, got {far}")
     v = poly.vertices
     lo, hi = v.min(axis=0), v.max(axis=0)
     c = (lo + hi) / 2
-    c = np.where(np.abs(c) > FAR_FROM_ORIGIN * poly.diameter, c, 0.0)
+    c = np.where(np.abs(c) > far * poly.diameter, c, 0.0)
     return complex(c[0], c[1])
 
 
@@ -168,7 +178,8 @@ def _run_stages(
     report("validate", 0.0)
     t0 = time.perf_counter()
     poly: Polygon = validate_polygon(polygon)
-    origin = _working_origin(poly)
+    nested = getattr(_nesting, "value", 0) > 0
+    origin = _working_origin(poly, FAR_FROM_ORIGIN if nested else FAR_FROM_ORIGIN_TOP)
     work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 

@@ -241,7 +241,8 @@ class MeshResult:
     quad_source: np.ndarray | None = None
     """Per final quad: 0 = disk mesh of a thick piece, 1 = vertex sector, 2 = channel."""
     origin: complex = 0j
-    """Working origin: for a polygon far from 0 (centre beyond 4 diameters) the stages run on
+    """Working origin: for a polygon far from 0 (centre beyond 1 diameter; a part cut off it,
+    beyond 4 of its own) the stages run on
     the polygon translated exactly by −origin, so ``decomposition``, ``pieces`` and ``thin``
     hold plane points relative to ``origin``; ``polygon`` is always in the input's
     coordinates. 0 for every other polygon."""

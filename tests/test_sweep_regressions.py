@@ -56,3 +56,23 @@ def test_star_far_from_origin_meshes() -> None:
     # tolerance
     assert 60.0 - 1e-5 <= far.quality.min_angle and far.quality.max_angle <= 120.0 + 1e-5
     assert abs(far.mesh.areas().sum() - far.polygon.area) < 1e-8 * far.polygon.area
+
+
+def test_polygon_two_diameters_from_origin_is_meshed_at_its_centre() -> None:
+    """The user's polygon is meshed at its bounding-box centre from 1 diameter away from (0, 0)
+    (parts cut off it only from 4, where they can no longer be matched by position): the
+    translation is exact, every stage's data is relative to ``result.origin``, and the mesh
+    verifies as stored."""
+    from quadmesh.pipeline import FAR_FROM_ORIGIN, FAR_FROM_ORIGIN_TOP
+
+    star = random_star(np.random.default_rng(3), 20)
+    d = validate_polygon(star).diameter
+    poly = validate_polygon(star + np.array([2.0 * d, -2.5 * d]))
+    assert _working_origin(poly, FAR_FROM_ORIGIN) == 0j
+    o = _working_origin(poly, FAR_FROM_ORIGIN_TOP)
+    assert o != 0j and np.array_equal((poly.z - o) + o, poly.z)
+    r = mesh_polygon(poly.vertices)
+    assert r.origin == o and r.verification.ok
+    v = r.mesh.vertices + np.array([r.mesh_origin.real, r.mesh_origin.imag])
+    lo, hi = poly.vertices.min(axis=0), poly.vertices.max(axis=0)
+    assert np.all(v >= lo - 1e-12 * d) and np.all(v <= hi + 1e-12 * d)
