@@ -31,6 +31,7 @@ of long-double sums on the same nodes).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -127,25 +128,25 @@ class Configuration:
             p_ = -2.0 * sh * sh
             q_ = 2.0 * sh * np.cos(half)
             x_, y_ = self.z.real[:, None], self.z.imag[:, None]
-            self.Er = np.empty((n + 1, n))
-            self.Ei = np.empty((n + 1, n))
-            np.subtract(x_ * p_, y_ * q_, out=self.Er[:n])
-            np.add(x_ * q_, y_ * p_, out=self.Ei[:n])
-            E[:n].real = self.Er[:n]
-            E[:n].imag = self.Ei[:n]
+            np.subtract(x_ * p_, y_ * q_, out=E[:n].real)
+            np.add(x_ * q_, y_ * p_, out=E[:n].imag)
         else:
             E[:n] = self.z[None, :] - self.z[:, None]
         E[n] = self.z
         self.E = E
-        if not local:
-            self.Er = np.empty((n + 1, n))
-            self.Ei = np.empty((n + 1, n))
-            self.Er[:n] = E[:n].real
-            self.Ei[:n] = E[:n].imag
-        self.Er[n] = self.z.real
-        self.Ei[n] = self.z.imag
         half = np.minimum(gaps, np.roll(gaps, 1))
         self.nn = 2.0 * np.sin(0.5 * np.minimum(half, np.pi))
+
+    @functools.cached_property
+    def Er(self) -> np.ndarray:
+        """Real parts of ``E``, contiguous (the direct sums' real arithmetic); made on first
+        use — the far-field route (:func:`_integrate_far`) never needs them."""
+        return np.ascontiguousarray(self.E.real)
+
+    @functools.cached_property
+    def Ei(self) -> np.ndarray:
+        """Imaginary parts of ``E``, contiguous (see :attr:`Er`)."""
+        return np.ascontiguousarray(self.E.imag)
 
     def half_offsets(self) -> tuple[np.ndarray, np.ndarray]:
         """Offsets of each arc midpoint from its two end prevertices (for the side integrals)."""
