@@ -398,6 +398,8 @@ def _far_coefficients(
     returns ``Σ_nodes v/(z_j − s) = (1/R) Σ_p M_p q_j^{p+1}`` for the far columns (zero
     elsewhere), shape (G, n).
     """
+    from .series import log_coefficients  # (series imports this module)
+
     n = cfg.n
     G = gb.size
     beta = cfg.beta
@@ -405,8 +407,6 @@ def _far_coefficients(
     a = np.zeros((G, order + 1), dtype=np.complex128)
     J = np.zeros((G, n), dtype=np.complex128) if moments is not None else None
     step = max(1, _FAR_BLOCK // max(n, 1))
-    beta_c = beta.astype(np.complex128)  # a complex matrix-vector product (zgemv) is ~5×
-    # faster than two real ones on the strided real and imaginary parts
     with np.errstate(divide="ignore", invalid="ignore"):
         for g0 in range(0, G, step):
             checkpoint()
@@ -436,12 +436,8 @@ def _far_coefficients(
                 la = np.arctan2(B.imag, B.real)
                 lr[ex_r, ex_c] = 0.0
                 la[ex_r, ex_c] = 0.0
+                a[g, 1:] = log_coefficients(q, beta, order)[:, 1:]
                 a[g, 0] = lr @ (0.5 * beta) + 1j * (la @ beta)
-                P = q.copy()
-                a[g, 1] = -(P @ beta_c)
-                for mm in range(2, order + 1):
-                    P *= q
-                    a[g, mm] = -(P @ beta_c) / mm
             if moments is not None:
                 # Σ_p M_p q^{p+1} by Horner's rule in q
                 acc = np.broadcast_to(moments[g, jac_order, None], (k, n)).copy()

