@@ -290,8 +290,16 @@ def best_rotation(
 
     two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
-    with span(0.0, 1.0 / count):
-        first = piece_intervals(theta, stretches, options, name)
+    try:
+        with span(0.0, 1.0 / count):
+            first = piece_intervals(theta, stretches, options, name)
+    except DiskConstructionError:
+        # no arc fits around some core at ψ = 0 (measured: a crosscut's prevertex stretch that
+        # starts at θ_0 = 0, where the tessellation's arcs all end, on the STIX "n" and "i"):
+        # every rotation is tried, whatever the piece's size or crowding
+        if count == 1:
+            raise
+        return _any_rotation(theta, stretches, options, name)
     if count == 1 or first[0].shape[0] > ROTATION_MAX_ARCS:
         return 0.0, *first
     prv, _ = _arc_gaps(np.sort(theta))
@@ -323,3 +331,28 @@ def best_rotation(
                 continue
             return float(psi), *got
     return 0.0, *first  # no rotation builds W: let the caller report the unrotated failure
+
+
+def _any_rotation(
+    theta: np.ndarray,
+    stretches: list[tuple[int, int]],
+    options: MeshOptions,
+    name: Callable[[tuple[str, int]], str] | None,
+) -> tuple[float, np.ndarray, list[tuple[str, int]]]:
+    """The first rotation ψ = 2π/5·k/R (k = 1 … R − 1, R = ``options.rotations``) whose arcs
+    fit and whose Lemma 2.2 region W builds, for a piece whose arcs do not fit at ψ = 0; the
+    unrotated failure is raised again when none does."""
+    from .disk.region import build_region
+
+    two_pi = 2 * np.pi
+    count = max(1, int(options.rotations))
+    for k in range(1, count):
+        psi = two_pi / 5 * k / count
+        try:
+            arcs, owners = piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
+            build_region(arcs, A=options.lemma_A)
+        except DiskConstructionError:
+            continue
+        return float(psi), arcs, owners
+    piece_intervals(theta, stretches, options, name)  # raises the unrotated failure
+    raise AssertionError("unreachable")  # pragma: no cover

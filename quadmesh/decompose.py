@@ -85,7 +85,7 @@ from __future__ import annotations
 
 import numbers
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import ClassVar
 
@@ -621,15 +621,17 @@ def _find_channels(
         ok &= (np.abs(z[w1] + zn[w1] - 2 * O) > np.abs(edge[w1]) * (1 + 1e-12)) & (
             np.abs(z[w2] + zn[w2] - 2 * O) > np.abs(edge[w2]) * (1 + 1e-12)
         )
-        e1 = (mid[w1] - O) / np.abs(mid[w1] - O)
-        e2 = (mid[w2] - O) / np.abs(mid[w2] - O)
-        beta = np.angle(e2 / e1)
-        ok &= (beta > 0) & (beta < np.pi)
-        xlo = np.maximum(r10, r20)
-        xhi = np.minimum(r11, r21)
-        ok &= xhi > xlo
-        # prefilter: extremal distance over the whole common range
+        # (nearly parallel walls put O at infinity, or a wall's midpoint on O: such rows come
+        # out NaN and are dropped by the comparisons)
         with np.errstate(divide="ignore", invalid="ignore"):
+            e1 = (mid[w1] - O) / np.abs(mid[w1] - O)
+            e2 = (mid[w2] - O) / np.abs(mid[w2] - O)
+            beta = np.angle(e2 / e1)
+            ok &= (beta > 0) & (beta < np.pi)
+            xlo = np.maximum(r10, r20)
+            xhi = np.minimum(r11, r21)
+            ok &= xhi > xlo
+            # prefilter: extremal distance over the whole common range
             ok &= beta / np.log(xhi / xlo) < delta
         for i, j, o, e, bb, xl, xh in zip(
             w1[ok], w2[ok], O[ok], e1[ok], beta[ok], xlo[ok], xhi[ok], strict=True
@@ -1286,6 +1288,7 @@ def _least_crowded(
     region: Callable[[], shapely.Polygon],
     centre: complex,
     radius: float,
+    force: bool = False,
 ) -> tuple[complex, float, float]:
     """The centre f(0) of a piece's disk map that keeps its smallest prevertex gap largest.
 
@@ -1299,17 +1302,19 @@ def _least_crowded(
     measure, and the one with the largest smallest gap is returned (with its distance to the
     region's boundary) when it gains at least a factor 10, with the estimate from ``centre``
     as a third value; otherwise ``(centre, radius, nan)``. ``w``: the piece's vertices
-    (complex, counter-clockwise), ``piece`` the same as a polygon."""
+    (complex, counter-clockwise), ``piece`` the same as a polygon. ``force``: whatever the
+    piece's elongation and estimated gap (a piece whose map or disk mesh failed from
+    ``centre``, :func:`recentred`)."""
     from scipy.spatial import QhullError
 
     from .conformal.center import harmonic_measure, harmonic_measures
 
     keep = (centre, radius, float("nan"))
-    if radius <= 0 or piece.area < CENTRE_ELONGATION * radius * radius:
+    if radius <= 0 or (not force and piece.area < CENTRE_ELONGATION * radius * radius):
         return keep
     try:  # the estimate the conformal stage starts from (remembered for it)
         g0 = 2.0 * np.pi * float(np.min(harmonic_measure(w, centre)))
-        if not g0 < CENTRE_GAP:
+        if not (g0 < CENTRE_GAP or force):
             return keep
     except (ValueError, ArithmeticError, np.linalg.LinAlgError, QhullError):
         return keep
@@ -1331,6 +1336,29 @@ def _least_crowded(
         return keep
     c = complex(poles[k])
     return c, float(shapely.distance(shapely.Point(c.real, c.imag), free.exterior)), g0
+
+
+def recentred(dec: Decomposition, index: int) -> Decomposition | None:
+    """``dec`` with thick piece ``index``'s map centre f(0) moved where its map is least
+    crowded (:func:`_least_crowded`, whatever the piece's elongation and estimated gap), for a
+    piece whose map or disk construction failed from its centre (the estimate misjudged it:
+    the smallest prevertex gap of the cmr10 "2"'s bowl was estimated above
+    :data:`CENTRE_GAP` and its disk arcs came out below what extended precision resolves);
+    None when the centre was moved already or no other centre gains a factor 10."""
+    piece = dec.thick[index]
+    if np.isfinite(piece.inscribed_gap):
+        return None
+    poly = shapely.Polygon(_xy(piece.z))
+    cuts = [(c.start, c.stop, c.channel, c.end, c.reversed) for c in piece.crosscuts]
+    region = partial(_free_region, poly, cuts, list(dec.channels))
+    ctr, rad, g_in = _least_crowded(
+        np.asarray(piece.z), poly, region, piece.center, piece.radius, force=True
+    )
+    if np.isnan(g_in):
+        return None
+    moved = replace(piece, center=ctr, radius=rad, min_gap=float("nan"), inscribed_gap=g_in)
+    thick = tuple(moved if p.index == index else p for p in dec.thick)
+    return replace(dec, thick=thick)
 
 
 def _ridge_centre(

@@ -262,11 +262,24 @@ def _run_stages(
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
                 stop = run.cancel if run is not None else None
-                if not arm_first:  # several pieces, one of them too crowded: try an arm
+                if not arm_first:  # one piece of several too crowded: an arm
                     armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
                 if armed is None and isinstance(exc, ConformalMapError):
                     # crowded beyond what arms relieve: a bridge across the middle
                     armed = _mesh_bridge(dec, options, stop, runner.executor)
+                if armed is None:
+                    # the failing pieces' maps again, from their least crowded centres (arms
+                    # and bridges first: they take fewer quads — cmr10 "9" 68,552 by a
+                    # bridge, 86,282 so)
+                    moved = _recentred(dec, exc)
+                    if moved is not None:
+                        try:
+                            armed = (
+                                *_mesh_thick_and_thin(moved, options, report, timings, runner),
+                                moved,
+                            )
+                        except (ConformalMapError, DiskConstructionError):
+                            armed = None
                 if armed is None and corridor_why:
                     raise type(exc)(
                         f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
@@ -458,6 +471,20 @@ def _thick_and_thin(
         timings["thin"] = timings.get("thin", 0.0) + time.perf_counter() - t0
         break
     return asm, pieces, thin
+
+
+def _recentred(dec, exc: QuadmeshError):
+    """``dec`` with the map centre of every thick piece that ``exc`` names (its ``piece`` and
+    ``other_failed``) moved where its map is least crowded
+    (:func:`quadmesh.decompose.recentred`), or None when none of them moves."""
+    from .decompose import recentred
+
+    failed = [exc.piece, *getattr(exc, "other_failed", ())]
+    out = None
+    for k in dict.fromkeys(int(p) for p in failed if p is not None):
+        if 0 <= k < len(dec.thick):
+            out = recentred(dec if out is None else out, k) or out
+    return out
 
 
 #: A bridge is tried only for the polygon the user gave, not inside the parts that arms and

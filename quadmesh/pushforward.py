@@ -56,7 +56,7 @@ def push_forward(fmap, disk, theta: np.ndarray, zpoly: np.ndarray) -> np.ndarray
     if circ.size:
         ang = np.angle(disk.exact_vertices()[circ])
         th = getattr(fmap, "theta_ld", None)
-        if th is None:  # a rotated map (gaps ≥ ROTATION_MIN_GAP): float64 angles suffice
+        if th is None:  # a map without crowded clusters: float64 angles suffice
             th, ang = theta, ang.astype(float)
         image[circ] = project_to_sides(image[circ], ang, th, zpoly)
     tris = disk.triangles
@@ -158,6 +158,10 @@ class RotatedMap:
         self._r = complex(np.exp(1j * psi))
         self.theta = np.mod(np.asarray(base.theta, dtype=float) + psi, 2 * np.pi)
         self.prevertices = np.asarray(base.prevertices) * self._r
+        th_ld = getattr(base, "theta_ld", None)
+        if th_ld is not None:  # crowded maps: the sides of circle points decided at ~1e-19
+            two_pi = 2 * np.longdouble(np.pi)
+            self.theta_ld = np.mod(np.asarray(th_ld, dtype=np.longdouble) + psi, two_pi)
 
     prevertex_angles = property(lambda self: self.theta, doc="Alias of ``theta``.")
 

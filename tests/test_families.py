@@ -334,3 +334,30 @@ def test_a_square_cut_river_end_is_started_from_its_corner() -> None:
         assert min(theta[(t - 1) % n], theta[(t + 1) % n]) < 120.0
     lay = ladder_layout(z, partial=True)
     assert lay.tips == (s, e) and lay.kind[0] == "cap" and len(lay.cells) > 100
+
+
+def test_a_piece_whose_arcs_fit_only_after_a_rotation_meshes() -> None:
+    """STIX "i": its stem's crosscut has a prevertex stretch starting at θ_0 = 0, where every
+    arc of the tessellation ends, so no arc fits there at ψ = 0 (refused before: the rotation
+    trial was skipped for a piece of more than 16 arcs); a rotated normalisation fits."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("i", "STIXGeneral")
+    r = mesh_polygon(xy)
+    assert any(getattr(p.map, "rotation", 0.0) > 0.0 for p in r.pieces)
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_a_piece_whose_map_fails_is_mapped_again_from_its_least_crowded_centre() -> None:
+    """Computer Modern "6": a bowl with a long hook, not elongated enough to be examined before
+    its map is solved (area < 6 inscribed radii squared), is crowded to ~1e-20 rad from its
+    largest inscribed disk and was refused; after the failure its map is solved again from the
+    least crowded centre (~4e-11 rad) and meshes."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("6", "cmr10")
+    r = mesh_polygon(xy)
+    assert any(np.isfinite(p.inscribed_gap) for p in r.decomposition.thick)
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
