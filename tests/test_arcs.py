@@ -102,8 +102,29 @@ def test_a_core_at_the_tessellations_breakpoint_is_meshed_after_a_rotation() -> 
     # arc is both centred on the stretch and small against its gap at ψ = 0, and with 17 arcs
     # the rotation trial was skipped, so the glyph was refused
     theta = np.array(
-        [0.0, 0.0031, 0.0106, 0.0181, 0.0212, 0.36, 0.93, 1.63, 2.01, 2.14, 2.163, 2.1646,
-         2.1647, 4.221, 4.2212, 4.2219, 4.235, 4.308, 4.53, 4.99, 5.55]
+        [
+            0.0,
+            0.0031,
+            0.0106,
+            0.0181,
+            0.0212,
+            0.36,
+            0.93,
+            1.63,
+            2.01,
+            2.14,
+            2.163,
+            2.1646,
+            2.1647,
+            4.221,
+            4.2212,
+            4.2219,
+            4.235,
+            4.308,
+            4.53,
+            4.99,
+            5.55,
+        ]
     )
     options = MeshOptions()
     with pytest.raises(DiskConstructionError, match="no arc"):
