@@ -226,6 +226,13 @@ def _run_stages(
                 mesh_origin=mesh_origin,
             )
 
+    # the paper's construction, also for the parts that arms and bridges cut off (with blocks
+    # chosen and no layout found, those parts were meshed by blocks again: their cuts carried
+    # the layouts' points, which no ladder joined — the STIX "G" was refused after 75 s)
+    user_options = options
+    if options.method != "bishop":
+        options = replace(options, method="bishop")
+
     report("decompose", 0.05, 0.08)
     t0 = time.perf_counter()
     dec = decompose(work_poly, DecomposeOptions(delta=options.channel_delta))
@@ -309,7 +316,7 @@ def _run_stages(
     report("done", 1.0)
     return MeshResult(
         polygon=poly,
-        options=options,
+        options=user_options,
         decomposition=dec,
         pieces=tuple(pieces),
         thin=tuple(thin),

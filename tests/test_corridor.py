@@ -405,3 +405,30 @@ def test_arm_tips_start_nearest_the_crowded_place():
     d = [abs(z[s] - place) for s, _ in tips]
     assert d == sorted(d) and all(s != e for s, e in tips)
     assert abs(z[tips[0][0]] - place) < 1.0
+
+
+def test_with_blocks_and_no_layout_the_arms_body_is_meshed_by_the_papers_construction(
+    monkeypatch,
+) -> None:
+    """``method="blocks"`` without a layout falls back to the paper's construction, and so do
+    the parts it cuts off (an arm's body, a bridge's sides): blocks are searched once, for the
+    user's polygon, and the mesh is the one ``method="bishop"`` makes (before, the parts were
+    searched for layouts again, and the STIX "G", whose bridge sides then carried layouts'
+    points, was refused)."""
+    import quadmesh.blocks as blocks
+    from quadmesh import MeshOptions
+
+    calls = []
+
+    def no_layout(polygon, size=None):
+        calls.append(len(polygon))
+        raise blocks.BlockLayoutError("no layout (test)")
+
+    monkeypatch.setattr(blocks, "mesh_blocks", no_layout)
+    poly = _tadpole(6.0)
+    r = mesh_polygon(poly, MeshOptions(method="blocks"))
+    assert len(calls) == 1 and r.fallback is not None and r.options.method == "blocks"
+    assert [t.kind for t in r.thin].count("corridor") == 1  # the arm
+    ref = mesh_polygon(poly)
+    assert np.array_equal(r.mesh.quads, ref.mesh.quads)
+    assert np.array_equal(r.mesh.vertices, ref.mesh.vertices)
