@@ -99,7 +99,10 @@ def test_split_count() -> None:
 
 
 @pytest.mark.parametrize("theta_deg", THETAS)
-def test_graded_crosscut(theta_deg: int) -> None:
+def test_graded_crosscut(theta_deg: int, monkeypatch) -> None:
+    import quadmesh.thin.parabolic as par
+
+    monkeypatch.setattr(par, "_LAM_GROW", ())  # the tree's own bounds, at lam = 1/4
     theta = math.radians(theta_deg)
     u = graded_u()
     g = make_gamma(u, theta)
@@ -148,7 +151,10 @@ def test_random_graded_crosscuts() -> None:
         check_sector(mesh_vertex_sector(0j, 1.0, theta, g), 0j, g)
 
 
-def test_outer_vertices_follow_the_crosscut() -> None:
+def test_outer_vertices_follow_the_crosscut(monkeypatch) -> None:
+    import quadmesh.thin.parabolic as par
+
+    monkeypatch.setattr(par, "_LAM_GROW", ())  # the tree's own slope bound, at lam = 1/4
     theta = math.radians(90)
     g = make_gamma(graded_u(), theta, apex=0j, d1=1.0)
     mesh = mesh_vertex_sector(0j, 1.0, theta, g)
@@ -330,3 +336,31 @@ def test_sector_template_merges_coinciding_radii() -> None:
     # the Mesh 1 radius s taken equal to r0: the Mesh 1 vertices at s on the sides merge
     merged = parabolic._build_template(roots, 2, depth - 1, (0, 0, *range(2, n_ids)))
     assert merged.n_vertices < plain.n_vertices
+
+
+def _smallest_edge(mesh) -> float:
+    z, q = mesh.vertices, mesh.quads
+    return float(np.abs(z[q] - z[np.roll(q, -1, axis=1)]).min())
+
+
+def test_sectors_grow_where_straight_chains_still_connect_them(monkeypatch) -> None:
+    """A sector accepted at lam = 1/4 is built at 2.4 or 1.6 times that radius when its
+    connection quads stay in [65°, 115°] with no more rings: the same quads, every tree quad
+    larger (the smallest edges, at the apex, by the same factor), every angle in range."""
+    import quadmesh.thin.parabolic as par
+
+    apex, d1 = 0.3 + 0.2j, complex(np.exp(0.7j))
+    grown = 0
+    for theta_deg in THETAS:
+        theta = math.radians(theta_deg)
+        g = make_gamma(uneven_u(20), theta, rot_err=0.0)
+        mesh = mesh_vertex_sector(apex, d1, theta, g)
+        check_sector(mesh, apex, g)
+        with monkeypatch.context() as mp:
+            mp.setattr(par, "_LAM_GROW", ())
+            plain = mesh_vertex_sector(apex, d1, theta, g)
+        assert np.array_equal(mesh.quads, plain.quads)
+        ratio = _smallest_edge(mesh) / _smallest_edge(plain)
+        assert ratio >= 1.0 - 1e-12
+        grown += ratio > 1.5
+    assert grown >= len(THETAS) // 2

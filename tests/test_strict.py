@@ -26,8 +26,9 @@ from tests.helpers import require_pipeline
 
 NEXT = [1, 2, 3, 0]
 PREV = [3, 0, 1, 2]
-#: a 10 m parcel at 5e6 m northing (UTM-like coordinates)
-PARCEL = np.array([[0, 0], [10, 0], [10, 7], [4, 9], [0, 6]], dtype=float) + np.array([5e5, 5e6])
+#: a 1 m plot at 5e6 m northing (UTM-like coordinates; a 10 m parcel there is written in
+#: absolute coordinates since the vertex sectors grow where they can)
+PARCEL = np.array([[0, 0], [1, 0], [1, 0.7], [0.4, 0.9], [0, 0.6]]) + np.array([5e5, 5e6])
 
 
 def independent_check(mesh_file: Path, polygon: np.ndarray, angle_tol: float) -> dict:
@@ -132,7 +133,7 @@ def test_cli_mesh_passes_independent_check(name: str, tmp_path: Path, capsys) ->
 
 
 def test_far_parcel_written_relative(tmp_path: Path, capsys) -> None:
-    """A 10 m parcel at (5e5, 5e6): absolute float64 coordinates there resolve ~1e-9 m,
+    """A 1 m plot at (5e5, 5e6): absolute float64 coordinates there resolve ~1e-9 m,
     too coarse for its smallest quads, so the file holds coordinates relative to an exact
     origin (and says so); the independent check passes on the file at 1e-9°."""
     require_pipeline()
@@ -142,7 +143,7 @@ def test_far_parcel_written_relative(tmp_path: Path, capsys) -> None:
     assert "relative to the origin" in text and '"origin"' in text
     got = independent_check(out, PARCEL, angle_tol=1e-9)
     ox, oy = got["origin"]
-    assert ox == pytest.approx(5e5 + 5) and oy == pytest.approx(5e6 + 4.5)
+    assert ox == pytest.approx(5e5 + 0.5) and oy == pytest.approx(5e6 + 0.45)
     # the absolute coordinates would not have held the bound
     data = json.loads(out.read_text())
     absolute = QuadMesh(np.asarray(data["vertices"]) + np.array([ox, oy]), data["quads"])

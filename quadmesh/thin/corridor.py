@@ -1535,7 +1535,7 @@ def _sector_core(theta_deg: float, n_pts: int):
 
     th = np.radians(theta_deg)
     g = np.exp(1j * th * np.arange(n_pts) / (n_pts - 1))
-    sec = mesh_vertex_sector(0j, 1 + 0j, th, g, lam=CAP_CORE)
+    sec = mesh_vertex_sector(0j, 1 + 0j, th, g, lam=CAP_CORE, grow=False)
     inner = np.asarray(sec.kind) != KIND_CONNECTION
     q = np.asarray(sec.quads)[inner]
     used = np.unique(q)
