@@ -271,8 +271,10 @@ def _run_stages(
                 stop = run.cancel if run is not None else None
                 if not arm_first:  # one piece of several too crowded: an arm
                     armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
-                if armed is None and isinstance(exc, ConformalMapError):
-                    # crowded beyond what arms relieve: a bridge across the middle
+                if armed is None:
+                    # crowded beyond what arms relieve: a bridge across the middle (also when
+                    # the map was solved but the disk construction failed: STIX "h" and cmr10
+                    # "2" are crowded to ~1e-14 rad, arcs of 1e-16 rad)
                     armed = _mesh_bridge(dec, options, stop, runner.executor)
                 if armed is None:
                     # the failing pieces' maps again, from their least crowded centres (arms

@@ -361,3 +361,17 @@ def test_a_piece_whose_map_fails_is_mapped_again_from_its_least_crowded_centre()
     assert any(np.isfinite(p.inscribed_gap) for p in r.decomposition.thick)
     lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_a_bridge_is_tried_when_the_disk_construction_fails_from_crowding() -> None:
+    """STIX "h": its arch and right stem are crowded from every centre to ~2e-14 rad, so the map
+    is solved but the disk construction cannot place its arcs (arcs of 1e-16 rad); bridges were
+    tried only after a failed map. A bridge across the stem now meshes it."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("h", "STIXGeneral")
+    r = mesh_polygon(xy)
+    bridge = [t for t in r.thin if t.kind == "corridor"]
+    assert len(bridge) == 1 and bridge[0].mesh.start is not None
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
