@@ -503,10 +503,11 @@ BRIDGE_TRIES = 4
 #: ... and at most this many parts (near parts and far bodies) meshed in all: a count, not a
 #: time, so that what meshes does not depend on the machine.
 BRIDGE_MESHES = 8
-#: ... and only for polygons of at most this many vertices (glyphs have 30–140; a 299-vertex
-#: image contour spent over 120 s in a failing search, and each part of a long river or
-#: coast takes tens of seconds to mesh).
-BRIDGE_MAX_VERTICES = 160
+#: ... and only for polygons of at most this many vertices: glyphs have 30–140, buffered
+#: random walks 170–300 (walks 0 and 8 of the families, 251 and 248 vertices, mesh by bridges:
+#: 12,452 and 146,215 quads, 14–16 s); a failing search on the 299-vertex X of scikit-image's
+#: "text" takes 60 s instead of 6 s, and each part of a long river or coast tens of seconds.
+BRIDGE_MAX_VERTICES = 300
 _nesting = threading.local()
 
 

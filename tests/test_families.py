@@ -375,3 +375,20 @@ def test_a_bridge_is_tried_when_the_disk_construction_fails_from_crowding() -> N
     assert len(bridge) == 1 and bridge[0].mesh.start is not None
     lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_a_random_walk_of_250_vertices_meshes_by_a_bridge() -> None:
+    """Buffered random walk 0 of the family (251 vertices, kinks of 241°): no ladder as a whole
+    and no arm; bridges were tried only up to 160 vertices. A bridge meshes it with ~50 quads
+    per polygon vertex."""
+    from quadmesh import mesh_polygon
+    from quadmesh.families import family_members
+
+    m = family_members("walks")[0]
+    r = mesh_polygon(m.vertices)
+    assert any(t.kind == "corridor" and t.mesh.start is not None for t in r.thin)
+    assert len(r.mesh.quads) < 100 * len(m.vertices)
+    lo, hi = independent_check(
+        validate_polygon(m.vertices).vertices, r.mesh.vertices, r.mesh.quads, 1e-5
+    )
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
