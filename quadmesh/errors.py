@@ -131,9 +131,12 @@ class ConformalMapError(QuadmeshError):
 
 
 class DiskConstructionError(QuadmeshError):
-    """The disk construction (Lemma 2.2 and the piece meshes) failed."""
+    """The disk construction (Lemma 2.2 and the piece meshes) failed. ``distortion``: True when
+    the pushed-forward mesh's angles stayed out of range after the adaptive loop (or with it
+    off), False when the arcs could not be placed or the map crowds the mesh to degeneracy."""
 
     stage = "disk"
+    distortion: bool = False
 
 
 class ThinPartError(QuadmeshError):

@@ -269,14 +269,17 @@ def _run_stages(
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
                 stop = run.cancel if run is not None else None
+                # angles out of range after the adaptive loop (or with it off) are no crowding:
+                # no bridge, no other centre
+                crowded = not getattr(exc, "distortion", False)
                 if not arm_first:  # one piece of several too crowded: an arm
                     armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
-                if armed is None:
+                if armed is None and crowded:
                     # crowded beyond what arms relieve: a bridge across the middle (also when
                     # the map was solved but the disk construction failed: STIX "h" and cmr10
                     # "2" are crowded to ~1e-14 rad, arcs of 1e-16 rad)
                     armed = _mesh_bridge(dec, options, stop, runner.executor)
-                if armed is None:
+                if armed is None and crowded:
                     # the failing pieces' maps again, from their least crowded centres (arms
                     # and bridges first: they take fewer quads — cmr10 "9" 68,552 by a
                     # bridge, 86,282 so)
@@ -446,12 +449,14 @@ def _thick_and_thin(
                 n = next(m for m in (*ADAPTIVE_N, options.max_n) if m > n)
                 fixes.append(f"{what}: n raised to {n}")
             else:
-                raise DiskConstructionError(
+                err = DiskConstructionError(
                     f"mapped disk mesh angles out of [60°, 120°]: {what} (n = {n}, depth "
                     f"step {step:g}); the conformal map distorts the disk mesh too much there. "
                     f"{_more_help(options)}",
                     piece=next(iter(bad_kind.values()))[2],
                 )
+                err.distortion = True
+                raise err
 
         asm = Assembler()
         pieces, gam = glue_thick_pieces(asm, work, disks, dec, n, step, tuple(fixes))
@@ -508,6 +513,9 @@ BRIDGE_MESHES = 8
 #: 12,452 and 146,215 quads, 14–16 s); a failing search on the 299-vertex X of scikit-image's
 #: "text" takes 60 s instead of 6 s, and each part of a long river or coast tens of seconds.
 BRIDGE_MAX_VERTICES = 300
+#: Parts of a bridge (its near side, its far body) may be split by a bridge again, down to this
+#: nesting depth (0: only the user's polygon), all from the one budget of BRIDGE_MESHES.
+BRIDGE_DEPTH = 1
 _nesting = threading.local()
 
 
@@ -575,15 +583,19 @@ def _mesh_bridge(
     body's quads are in the mesh, its stage results are not kept."""
     from .thin.corridor import bridge_cuts, bridge_layout, shorter_bridges
 
-    if getattr(_nesting, "value", 0) > 0 or dec.polygon.z.size > BRIDGE_MAX_VERTICES:
+    depth = getattr(_nesting, "value", 0)
+    if depth > BRIDGE_DEPTH or dec.polygon.z.size > BRIDGE_MAX_VERTICES:
+        return None
+    if depth == 0:
+        _nesting.bridge_meshes = BRIDGE_MESHES
+    elif getattr(_nesting, "bridge_meshes", 0) <= 0:
         return None
 
-    meshes = [BRIDGE_MESHES]
-
     def part(w: np.ndarray) -> MeshResult | None:
-        if meshes[0] <= 0:
+        # one budget of part meshes for the user's polygon and the bridges inside its parts
+        if _nesting.bridge_meshes <= 0:
             return None
-        meshes[0] -= 1
+        _nesting.bridge_meshes -= 1
         return _mesh_part(w, options, cancel, executor)
 
     splits = []

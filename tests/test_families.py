@@ -392,3 +392,19 @@ def test_a_random_walk_of_250_vertices_meshes_by_a_bridge() -> None:
         validate_polygon(m.vertices).vertices, r.mesh.vertices, r.mesh.quads, 1e-5
     )
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+@pytest.mark.slow
+def test_a_bridges_part_may_be_bridged_again() -> None:
+    """Computer Modern "5": crowded from every centre and no arm; the parts of a bridge across
+    its middle are crowded again, and were refused (bridges only in the user's polygon). A part
+    is now bridged too (nesting depth 1, one budget of part meshes), and the glyph meshes with
+    a corridor per bridge (three)."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("5", "cmr10")
+    r = mesh_polygon(xy)
+    bridges = [t for t in r.thin if t.kind == "corridor" and t.mesh.start is not None]
+    assert len(bridges) >= 2
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
