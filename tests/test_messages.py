@@ -200,18 +200,28 @@ def _squeezed_disk(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(disk_pkg, "disk_mesh", squeezed)
 
 
-def _walk(k: int) -> np.ndarray:
+def _coins_background() -> np.ndarray:
+    """scikit-image "coins", contour 0 (303 vertices): a background region with a long tapering
+    wedge of wavy walls — no ladder, no arm, too many vertices for a bridge, and crowded."""
     from quadmesh.families import FAMILIES
 
-    return FAMILIES["walks"](0)[k].vertices
+    return next(m for m in FAMILIES["images"](0) if m.name == "coins_0").vertices
+
+
+def _stix_k() -> np.ndarray:
+    """STIX "k": its stem, foot and arm are one piece crowded to ~5e-15 rad (refused in ~5 s)."""
+    from quadmesh.families import glyph_outline
+
+    return glyph_outline("k", "STIXGeneral")
 
 
 #: name -> (polygon, options, stage of the refusal, what the message must say).
 REFUSALS = {
-    # a random walk with sharp kinks: the corridor mesher finds no layout of straight cells
-    # and the conformal map crowds
+    # a traced outline with a long wavy wedge: the corridor mesher finds no layout of straight
+    # cells and the conformal map crowds (random walks with sharp kinks, refused so before,
+    # now mesh by bridges)
     "curved_corridor": (
-        lambda: _walk(8),
+        _coins_background,
         MeshOptions(),
         "conformal",
         r"through vertices \d+ to \d+ \(around " + XY + r"\).*corridor.*would help",
@@ -303,8 +313,8 @@ def test_a_failure_carries_what_was_computed():
     from quadmesh.render import build_layer
 
     with pytest.raises(QuadmeshError) as info:
-        mesh_polygon(_walk(8))
+        mesh_polygon(_stix_k())
     partial = info.value.partial
     assert isinstance(partial, PartialResult) and len(partial.decomposition.thick) >= 1
-    assert np.allclose(partial.polygon.z, validate_polygon(_walk(8)).z)
+    assert np.allclose(partial.polygon.z, validate_polygon(_stix_k()).z)
     assert build_layer(partial, "thick_pieces").parts
