@@ -514,8 +514,11 @@ BRIDGE_MESHES = 8
 #: "text" takes 60 s instead of 6 s, and each part of a long river or coast tens of seconds.
 BRIDGE_MAX_VERTICES = 300
 #: Parts of a bridge (its near side, its far body) may be split by a bridge again, down to this
-#: nesting depth (0: only the user's polygon), all from the one budget of BRIDGE_MESHES.
+#: nesting depth (0: only the user's polygon), all from the one budget of BRIDGE_MESHES; for
+#: polygons of at most BRIDGE_NESTED_MAX_VERTICES vertices (glyphs: STIX "n", cmr10 "3" and
+#: "5" mesh so; a failing nested search on the 299-vertex text_2 contour took 142 s).
 BRIDGE_DEPTH = 1
+BRIDGE_NESTED_MAX_VERTICES = 160
 _nesting = threading.local()
 
 
@@ -589,7 +592,8 @@ def _mesh_bridge(
     if depth == 0:
         # first with parts that are not bridged again (fewer quads: walk_0 12,452 against
         # 100,113), then, when none joins, with parts that may be
-        for deepest in range(BRIDGE_DEPTH + 1):
+        nested = BRIDGE_DEPTH if dec.polygon.z.size <= BRIDGE_NESTED_MAX_VERTICES else 0
+        for deepest in range(nested + 1):
             _nesting.bridge_meshes = BRIDGE_MESHES
             _nesting.bridge_depth = deepest
             got = _bridge_search(dec, options, cancel, executor)
