@@ -266,14 +266,15 @@ def test_recent_files_menu(main_window, qtbot, tmp_path):
 
 
 def test_failed_run_marks_the_place_it_names(main_window, qtbot):
-    """A random walk whose meshing fails (walks seed 0, member 8: its ladder stops at a 277°
-    kink): the message names points "(x, y)"; red markers appear there in the plane view, and
-    editing clears them."""
+    """A traced contour whose meshing fails (scikit-image "coins", contour 0: a background
+    region with a long wavy wedge, crowded, no ladder): the message names points "(x, y)"; red
+    markers appear there in the plane view, and editing clears them."""
     require_pipeline()
-    from quadmesh.families import walks
+    from quadmesh.families import images
 
+    coins = next(m for m in images(0) if m.name == "coins_0").vertices
     win = main_window
-    win.set_polygon(walks(0)[8].vertices)
+    win.set_polygon(coins)
     assert win.editor.closed and win.mesh_button.isEnabled()
     with qtbot.waitSignal(win.runner.idle, timeout=120000):
         press(qtbot, win.mesh_button)
@@ -305,7 +306,7 @@ def test_failed_run_marks_the_place_it_names(main_window, qtbot):
     bounds = np.asarray(part_actors[0].GetMapper().GetInput().bounds)
     assert bounds[0] >= z.real.min() - 1e-9 and bounds[1] <= z.real.max() + 1e-9
     # an edit forgets the failure, its markers and its partial stages
-    win.set_polygon(walks(0)[8].vertices[:-1])
+    win.set_polygon(coins[:-1])
     assert "problem" not in win.plane.overlays and win.problem_points.size == 0
     assert "partial" not in win.plane.overlays and win.partial is None
 

@@ -119,8 +119,9 @@ def test_spin_box_steps_through_the_partial_pieces(main_window, qtbot):
 
 
 def test_unsolved_map_shows_the_estimate_it_judged(main_window, qtbot):
-    """A winding corridor with a narrow waist: no straight-cell layout, and the conformal map
-    of its one thick piece is refused as crowded, so there is no map.  The plane view outlines
+    """A traced background region with a long wavy wedge (scikit-image "coins", contour 0): no
+    straight-cell layout, and the conformal map of its one thick piece is refused as crowded,
+    so there is no map.  The plane view outlines
     that piece in red; the disk view shows what the crowding check judged — the
     harmonic-measure estimate of its prevertices, labelled so in the legend, with "(failed, no
     map)" in the spin box and no region or disk mesh; a drag in the disk view moves the
@@ -130,7 +131,7 @@ def test_unsolved_map_shows_the_estimate_it_judged(main_window, qtbot):
 
     require_pipeline()
     win = main_window
-    poly = np.asarray(FAMILIES["walks"](0)[8].vertices)
+    poly = np.asarray(next(m for m in FAMILIES["images"](0) if m.name == "coins_0").vertices)
     win.set_polygon(poly)
     with qtbot.waitSignal(win.runner.idle, timeout=120000):
         press(qtbot, win.mesh_button)
