@@ -501,9 +501,10 @@ def _recentred(dec, exc: QuadmeshError):
     return out
 
 
-#: A bridge is tried only for the polygon the user gave, not inside the parts that arms and
-#: bridges mesh (a failing bridge costs several part meshes); and at most this many splits
-#: (cut and side) are meshed, those whose ladder reaches the far end first.
+#: A bridge is tried for the polygon the user gave and, within its search, inside the parts a
+#: bridge cuts off (BRIDGE_DEPTH), never inside an arm's body outside such a search (a failing
+#: bridge costs several part meshes); at most this many splits (cut and side) are meshed, those
+#: whose ladder reaches the far end first.
 BRIDGE_TRIES = 4
 #: ... and at most this many parts (near parts and far bodies) meshed in all: a count, not a
 #: time, so that what meshes does not depend on the machine.
@@ -593,13 +594,16 @@ def _mesh_bridge(
         # first with parts that are not bridged again (fewer quads: walk_0 12,452 against
         # 100,113), then, when none joins, with parts that may be
         nested = BRIDGE_DEPTH if dec.polygon.z.size <= BRIDGE_NESTED_MAX_VERTICES else 0
-        for deepest in range(nested + 1):
-            _nesting.bridge_meshes = BRIDGE_MESHES
-            _nesting.bridge_depth = deepest
-            got = _bridge_search(dec, options, cancel, executor)
-            if got is not None:
-                return got
-        return None
+        try:
+            for deepest in range(nested + 1):
+                _nesting.bridge_meshes = BRIDGE_MESHES
+                _nesting.bridge_depth = deepest
+                got = _bridge_search(dec, options, cancel, executor)
+                if got is not None:
+                    return got
+            return None
+        finally:  # outside a search no part is bridged (the next call starts afresh)
+            _nesting.bridge_meshes = _nesting.bridge_depth = 0
     if depth > getattr(_nesting, "bridge_depth", 0) or getattr(_nesting, "bridge_meshes", 0) <= 0:
         return None
     return _bridge_search(dec, options, cancel, executor)
