@@ -729,19 +729,24 @@ def _sector_from_tree(
         attempts.append(f"lam {lam_try:.3g}: max |angle - 90| = {lam_dev:.1f}")
     # a sector accepted at ``lam`` grows while its connection needs no more rings (so no more
     # quads): every tree quad, the smallest ones at the apex included, grows with it
+    grown = None
     for factor in _LAM_GROW if grow and rings_used >= 0 else ():
+        if lam * factor > _LAM_GROWN_MAX:
+            continue
         base, w_s = place(lam * factor)
-        got = next(
-            (
-                (base, ring)
-                for ring, dev in candidates(base, w_s)
-                if len(ring) <= rings_used and dev <= _GOOD_DEVIATION
-            ),
-            None,
-        )
-        if got is not None:
-            found = got
+        for ring, dev in candidates(base, w_s):
+            if len(ring) > rings_used:
+                break
+            if dev <= _GOOD_DEVIATION:
+                grown = (base, ring)
+                break
+        if grown is not None:
             break
+    if grown is not None:
+        try:
+            return _sector_mesh(grown, tpl, g, g_idx, outer, side1_i, side2_i, m, n_pts, v)
+        except ThinPartError:  # the sector at ``lam`` below (never measured to happen)
+            pass
     if best_dev > 30.0:
         found = None
     if found is None:
@@ -752,6 +757,24 @@ def _sector_from_tree(
             f"angular gap of the crosscut is {gap:.1f} deg against outer sector chords of at "
             f"most {math.degrees(alpha) / 4:.1f} deg: the crosscut needs more vertices"
         )
+    return _sector_mesh(found, tpl, g, g_idx, outer, side1_i, side2_i, m, n_pts, v)
+
+
+def _sector_mesh(
+    found: tuple[np.ndarray, np.ndarray],
+    tpl: _Template,
+    g: np.ndarray,
+    g_idx: np.ndarray,
+    outer: np.ndarray,
+    side1_i: list[int],
+    side2_i: list[int],
+    m: int,
+    n_pts: int,
+    v: complex,
+) -> ThinMesh:
+    """The sector of :func:`_sector_from_tree` from its placed tree vertices and connection
+    rings ``found``: the tree's quads, the connection quads, checked (:func:`_verify`)."""
+    apex_i = 0
     base, ring = found
     verts = np.concatenate([base, g, ring.ravel()])
     cq, grid = _connection_quads(outer, g_idx, len(ring))
@@ -782,6 +805,8 @@ _LAM_FACTORS = np.array([1.0, 0.4, 0.16, 0.064])
 #: factor: on the bundled examples the smallest edge / local feature size up to 2.4× larger
 #: and 10–90 % fewer edges below 1/1000 of it, with the same or fewer quads.
 _LAM_GROW = (2.4, 1.6)
+#: ... never beyond this sector ratio (the largest the sweeps measured with good connections)
+_LAM_GROWN_MAX = 0.6
 _GOOD_DEVIATION = 25.0  # accept the first ring count with connection angles in [65, 115]
 
 
