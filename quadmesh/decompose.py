@@ -1341,10 +1341,11 @@ def _least_crowded(
 def recentred(dec: Decomposition, index: int) -> Decomposition | None:
     """``dec`` with thick piece ``index``'s map centre f(0) moved where its map is least
     crowded (:func:`_least_crowded`, whatever the piece's elongation and estimated gap), for a
-    piece whose map or disk construction failed from its centre (the estimate misjudged it:
-    the smallest prevertex gap of the cmr10 "2"'s bowl was estimated above
-    :data:`CENTRE_GAP` and its disk arcs came out below what extended precision resolves);
-    None when the centre was moved already or no other centre gains a factor 10."""
+    piece whose map or disk construction failed from its centre (:func:`_uncrowd` examines
+    only elongated pieces: the cmr10 "6", a bowl with a long hook of area below
+    :data:`CENTRE_ELONGATION` inscribed radii squared, is crowded to 1e-20 rad from its
+    inscribed centre and to 4e-11 from the least crowded one); None when the centre was moved
+    already or no other centre gains a factor 10."""
     piece = dec.thick[index]
     if np.isfinite(piece.inscribed_gap):
         return None
