@@ -344,15 +344,15 @@ def _any_rotation(
     unrotated failure is raised again when none does."""
     from .disk.region import build_region
 
-    two_pi = 2 * np.pi
     count = max(1, int(options.rotations))
-    for k in range(1, count):
-        psi = two_pi / 5 * k / count
+    psis = 2 * np.pi / 5 * np.arange(1, count) / count
+    for psi, got in zip(psis, _rotated_intervals(theta, stretches, options, psis)):
+        if got is None:
+            continue
         try:
-            arcs, owners = piece_intervals(np.mod(theta + psi, two_pi), stretches, options)
-            build_region(arcs, A=options.lemma_A)
+            build_region(got[0], A=options.lemma_A)
         except DiskConstructionError:
             continue
-        return float(psi), arcs, owners
+        return float(psi), *got
     piece_intervals(theta, stretches, options, name)  # raises the unrotated failure
     raise AssertionError("unreachable")  # pragma: no cover
