@@ -17,6 +17,14 @@ from .result import MeshOptions
 
 __all__ = ["best_rotation", "piece_intervals", "vertex_intervals"]
 
+#: ``MeshOptions.arc_choice`` → (offset of J's centre from the core, relative to J's
+#: half-width, below which centring does not count; weight of |log(size / target size)|).
+#: "centred" ranks centring before size; "sized" lets offsets up to 0.15 count as centred
+#: and weighs size ten times more: larger crosscuts near reflex corners (cmr10 "g"'s ear,
+#: 323°: a vertex sector 3e-11 wide with centred arcs rounds its 120° to 120.00008° in
+#: float64), on the examples 0.6–1.5× the quads and smallest edges 0.6–30× larger.
+ARC_CHOICE = {"centred": (0.0, 0.01), "sized": (0.15, 0.1)}
+
 
 def _arc_gaps(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Gaps to the previous and the next prevertex (radians), for sorted angles θ_k."""
@@ -134,7 +142,12 @@ def _candidate_arcs(
     # keeping that below g/2 keeps two neighbours' expansions inside the gap between them
     ratio_max = 0.5 / (np.sqrt(options.lemma_A) / 1.02 + 0.9)
     bad = (ratio > ratio_max) | (dist + half[:, None] > 0.9 * phi)
-    score = dist / phi + 0.01 * np.abs(np.log(ratio * options.crosscut_ratio)) + 10.0 * bad
+    free, weight = ARC_CHOICE[options.arc_choice]
+    score = (
+        np.maximum(dist / phi, free)
+        + weight * np.abs(np.log(ratio * options.crosscut_ratio))
+        + 10.0 * bad
+    )
     best = np.argmin(score, axis=1)
     rows = np.arange(centre.size)
     return jc[rows, best], phi[rows, best], score[rows, best]

@@ -34,6 +34,7 @@ from .errors import (
     DiskConstructionError,
     MeshVerificationError,
     PartialResult,
+    PolygonError,
     QuadmeshError,
     ThinPartError,
 )
@@ -152,11 +153,40 @@ def mesh_polygon(
     failed = True
     try:
         with running(progress, cancel) as run, blas_threads(options.blas_threads):
-            result = _run_stages(polygon, options, run, runner)
+            try:
+                result = _run_stages(polygon, options, run, runner)
+            except QuadmeshError as exc:
+                sized = _sized_retry(options, exc)
+                if sized is None:
+                    raise
+                try:
+                    result = _run_stages(polygon, sized, run, runner)
+                except Cancelled:
+                    raise
+                except QuadmeshError:
+                    raise exc from None
         failed = False
         return result
     finally:
         runner.close(failed)
+
+
+def _sized_retry(options: MeshOptions, exc: QuadmeshError) -> MeshOptions | None:
+    """The options for one more run after the user's polygon failed with ``exc`` in a stage
+    of the paper's construction: arcs chosen for size (``arc_choice="sized"``), or None (bad
+    input, cancelled, sized arcs already, ``adaptive=False`` — the user fixed the
+    parameters —, or a part inside an arm or bridge search: the retry is for the user's
+    polygon as a whole). Larger crosscuts near reflex corners give
+    quads that float64 can hold (Computer Modern "g": a 323° ear's sector of 6e-11 failed the
+    final check) and parts that mesh where centred arcs made them fail (Computer Modern "s",
+    67,217 quads)."""
+    if isinstance(exc, (PolygonError, Cancelled)) or options.arc_choice != "centred":
+        return None
+    if not options.adaptive:
+        return None
+    if getattr(_nesting, "value", 0) > 0:
+        return None
+    return replace(options, arc_choice="sized")
 
 
 def _run_stages(
@@ -166,7 +196,6 @@ def _run_stages(
     running the thick pieces' own stages through ``runner``."""
     from .decompose import DecomposeOptions, decompose
     from .mesh import finalize_mesh
-    from .refine import refine_quads
 
     timings: dict[str, float] = {}
 
@@ -268,30 +297,10 @@ def _run_stages(
             try:
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
-                stop = run.cancel if run is not None else None
                 # angles out of range after the adaptive loop (or with it off) are no crowding:
                 # no bridge, no other centre
                 crowded = not getattr(exc, "distortion", False)
-                if not arm_first:  # one piece of several too crowded: an arm
-                    armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
-                if armed is None and crowded:
-                    # crowded beyond what arms relieve: a bridge across the middle (also when
-                    # the map was solved but the disk construction failed: STIX "h" and cmr10
-                    # "2" are crowded to ~1e-14 rad, arcs of 1e-16 rad)
-                    armed = _mesh_bridge(dec, options, stop, runner.executor)
-                if armed is None and crowded:
-                    # the failing pieces' maps again, from their least crowded centres (arms
-                    # and bridges first: they take fewer quads — cmr10 "9" 68,552 by a
-                    # bridge, 86,282 so)
-                    moved = _recentred(dec, exc)
-                    if moved is not None:
-                        try:
-                            armed = (
-                                *_mesh_thick_and_thin(moved, options, report, timings, runner),
-                                moved,
-                            )
-                        except (ConformalMapError, DiskConstructionError):
-                            armed = None
+                armed = _rescue(dec, options, exc, run, report, timings, runner, arm_first, crowded)
                 if armed is None and corridor_why:
                     raise type(exc)(
                         f"{exc.args[0]}; meshing it as a corridor of straight cells failed too: "
@@ -308,14 +317,7 @@ def _run_stages(
 
     report("verify", 0.9, 1.0)
     t0 = time.perf_counter()
-    z = asm.vertices()  # relative to the working origin
-    quads, source = asm.all_quads()
-    if options.refine > 1:
-        z, quads, parent = refine_quads(z, quads, options.refine, origin=origin)
-        source = source[parent]
-    # verified as it will be stored: absolute coordinates, or relative to origin when far
-    # from (0, 0) float64 cannot hold the angles (MeshResult.mesh_origin)
-    mesh, mesh_origin, verification = finalize_mesh(poly, z, quads, origin)
+    mesh, mesh_origin, verification, source = _verified(poly, asm, options, origin)
     timings["verify"] = time.perf_counter() - t0
     quality = verification.quality
     report("done", 1.0)
@@ -334,6 +336,49 @@ def _run_stages(
         fallback=fallback,
         mesh_origin=mesh_origin,
     )
+
+
+def _verified(poly: Polygon, asm: Assembler, options: MeshOptions, origin: complex):
+    """The assembled mesh refined (``options.refine``) and verified as it will be stored:
+    absolute coordinates, or relative to ``origin`` when far from (0, 0) float64 cannot hold
+    the angles (:attr:`MeshResult.mesh_origin`). Returns (mesh, mesh origin, report, quad
+    sources); raises MeshVerificationError."""
+    from .mesh import finalize_mesh
+    from .refine import refine_quads
+
+    z = asm.vertices()  # relative to the working origin
+    quads, source = asm.all_quads()
+    if options.refine > 1:
+        z, quads, parent = refine_quads(z, quads, options.refine, origin=origin)
+        source = source[parent]
+    mesh, mesh_origin, verification = finalize_mesh(poly, z, quads, origin)
+    return mesh, mesh_origin, verification, source
+
+
+def _rescue(dec, options, exc, run, report, timings, runner, arm_first: bool, crowded: bool):
+    """Other routes after the paper's construction on ``dec`` failed with ``exc``: an arm and
+    the body behind it (unless ``arm_first``: it was tried), then — where the failure is
+    crowding (``crowded``), not a distortion the adaptive loop could not fix — a bridge across
+    the middle, then the failing pieces' maps from their least crowded centres (arms and
+    bridges first: they take fewer quads, cmr10 "9" 68,552 by a bridge, 86,282 so). Returns
+    (assembler, pieces, thin parts, decomposition) or None."""
+    stop = run.cancel if run is not None else None
+    armed = None
+    if not arm_first:  # one piece of several too crowded: an arm
+        armed = _mesh_arm_and_body(dec, options, stop, runner.executor)
+    if armed is None and crowded:
+        # crowded beyond what arms relieve: a bridge across the middle (also when the map
+        # was solved but the disk construction failed: STIX "h" and cmr10 "2" are crowded to
+        # ~1e-14 rad, arcs of 1e-16 rad)
+        armed = _mesh_bridge(dec, options, stop, runner.executor)
+    if armed is None and crowded:
+        moved = _recentred(dec, exc)
+        if moved is not None:
+            try:
+                armed = (*_mesh_thick_and_thin(moved, options, report, timings, runner), moved)
+            except (ConformalMapError, DiskConstructionError):
+                armed = None
+    return armed
 
 
 def _more_help(options: MeshOptions) -> str:

@@ -53,6 +53,13 @@ class MeshOptions:
             and so fewer Carleson pieces and pentagons (−8 to −25 % quads against 16 on the
             examples); the conformal collar straightens the less round crosscut. φ is capped
             so that the A-fold expansions of the I_j stay disjoint (Lemma 2.2's hypothesis).
+        arc_choice: how the arcs J_k are ranked: ``"centred"`` (the default) prefers the
+            arc whose centre is closest to the prevertex, then the size nearest g/φ =
+            ``crosscut_ratio``; ``"sized"`` counts offsets up to 0.15 φ as centred and
+            weighs size more, so crosscuts near reflex corners are larger. When the mesh of
+            the centred arcs fails the final check (quads too small for float64 where they
+            are), :func:`~quadmesh.mesh_polygon` meshes the polygon again with ``"sized"``
+            arcs and ``MeshResult.options`` says so.
         lemma_A: the expansion factor A of Lemma 2.2 handed to the disk construction. Any
             A > 1 satisfies the lemma; a smaller A lets the arcs J_k ⊃ √A·I_k grow closer to
             their neighbours (φ ≤ g/(2(√A/1.02 + 0.9))), 4: φ up to g/5.7 (16: g/9.6).
@@ -114,6 +121,7 @@ class MeshOptions:
     depth_max: float | None = 2.5
     inner_height: float = 1.0
     crosscut_ratio: float = 6.0
+    arc_choice: str = "centred"
     lemma_A: float = 4.0
     rotations: int = 8
     channel_delta: float = 0.15
@@ -153,6 +161,8 @@ class MeshOptions:
             raise ValueError(f"inner_height must be in (0, 2], got {self.inner_height}")
         if real("crosscut_ratio") < 4:
             raise ValueError(f"crosscut_ratio must be at least 4, got {self.crosscut_ratio}")
+        if self.arc_choice not in ("centred", "sized"):
+            raise ValueError(f"arc_choice must be 'centred' or 'sized', got {self.arc_choice!r}")
         if real("lemma_A") <= 1:
             raise ValueError(f"lemma_A must exceed 1, got {self.lemma_A}")
         integer("rotations", 1)

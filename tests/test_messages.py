@@ -122,6 +122,7 @@ def test_decompose_options_reject_out_of_range_values(kwargs: dict) -> None:
         {"inner_height": 3},
         {"crosscut_ratio": 2},
         {"crosscut_ratio": math.nan},
+        {"arc_choice": "round"},
         {"lemma_A": 1},
         {"lemma_A": math.inf},
         {"rotations": 0},
