@@ -1587,6 +1587,9 @@ class MainWindow(QMainWindow):
                 ),
                 ("thin parts", f"{len(r.thin)}"),
             ]
+            if getattr(r.options, "arc_choice", "centred") == "sized":
+                # the mesh on centred arcs failed; mesh_polygon meshed it again
+                rows.append(("arcs", "chosen for size (the centred ones failed)"))
         if q.n_original:
             rows.append(
                 (

@@ -284,6 +284,11 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
         )
     if result.fallback:
         print(f"note: {result.fallback}")
+    if result.options.arc_choice == "sized":
+        print(
+            "note: the mesh on centred arcs failed; the arcs were chosen for size instead "
+            "(larger crosscuts at reflex corners)"
+        )
     if args.stats:
         print(q.summary())
         print("timings:")

@@ -410,17 +410,23 @@ def test_a_bridges_part_may_be_bridged_again() -> None:
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
-def test_quads_too_small_for_float64_are_replaced_by_a_mesh_on_arcs_chosen_for_size() -> None:
+def test_quads_too_small_for_float64_are_replaced_by_a_mesh_on_arcs_chosen_for_size(
+    tmp_path, capsys
+) -> None:
     """Computer Modern "g": with centred arcs its 323° ear gets a crosscut 6e-6 from the
     vertex (its edges are 0.009 and 0.025 long) and a vertex sector down to 6e-11, whose exact
     120° angles read 120.00008° in float64 — the final check refused the mesh. The polygon is
-    meshed again on the same decomposition with arcs chosen for size, which passes, and the
-    result's options say so. Checked from outside."""
-    from quadmesh import mesh_polygon
+    meshed again with arcs chosen for size, which passes; `quadmesh mesh` says so, and the
+    file it writes passes the outside check (within the verifier's fixed 1e-5°: its smallest
+    quads read 59.9999997° and 120.0000008°)."""
+    from quadmesh.cli import main as cli
+    from quadmesh.io import read_mesh
 
     xy = glyph_outline("g", "cmr10")
-    r = mesh_polygon(xy)
-    assert r.options.arc_choice == "sized"
-    assert r.quality.min_edge_lfs > 1e-7
-    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    src, out = tmp_path / "g.txt", tmp_path / "g.json"
+    np.savetxt(src, xy, fmt="%.17g")
+    assert cli(["mesh", str(src), "-o", str(out)]) == 0
+    assert "arcs were chosen for size" in capsys.readouterr().out
+    mesh = read_mesh(out)
+    lo, hi = independent_check(validate_polygon(xy).vertices, mesh.vertices, mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
