@@ -338,6 +338,54 @@ def test_connection_angles_of_many_sectors_at_once_match_the_built_sectors():
         assert ok.sum() >= m - 5
 
 
+@pytest.mark.parametrize("parts", [2, 4])
+@pytest.mark.parametrize("ni, no", [(10, 14), (60, 20), (7, 40)])
+def test_ladder_cells_cut_along_their_length_stay_admissible(ni, no, parts):
+    """Every ladder cell cut into ``parts`` cells at the fractions j/parts of its walls (a
+    bridge's cells, when the two meshes' points do not join otherwise): the sub-cells tile
+    each cell, keep their corners in [60°, 120°] (with the layout's margin, as the cells they
+    come from), the new rung ends lie on the polygon edge ``edge_of`` names, and rungs and
+    cells stay in order along the ladder (each ladder cell between consecutive rungs)."""
+    from quadmesh.geometry import quad_signed_areas
+    from quadmesh.thin.corridor import split_ladder_cells
+
+    z = _ring(ni, no)
+    lay = ladder_layout(z)
+    out = split_ladder_cells(lay, z, parts)
+    n_ladder = lay.kind.count("ladder")
+    assert len(out.rungs) == len(lay.rungs) + (parts - 1) * n_ladder
+    assert len(out.cells) == len(lay.cells) + (parts - 1) * n_ladder
+    corners = out.vertices[out.cells]
+    assert np.all(cell_is_admissible(corners, margin_deg=CELL_MARGIN - 1e-9))
+    before = quad_signed_areas(lay.vertices, lay.cells).sum()
+    assert quad_signed_areas(out.vertices, out.cells).sum() == pytest.approx(before, rel=1e-12)
+    new = np.arange(lay.vertices.size, out.vertices.size)
+    e = np.roll(z, -1) - z
+    k = out.edge_of[new]
+    t = ((out.vertices[new] - z[k]) / e[k]).real
+    assert np.all((t > 0) & (t < 1))
+    assert np.all(np.abs(z[k] + t * e[k] - out.vertices[new]) < 1e-12)
+    for kind, (k0, k1) in zip(out.kind, out.cell_rungs, strict=True):
+        if kind == "ladder":
+            assert k1 == k0 + 1
+
+
+def test_a_bridge_whose_single_cell_run_cannot_join_its_meshes_is_cut_along_its_length():
+    """STIX "m": every bridge across its stems ends on meshes with 170–218 points on the cut
+    and 24–149 on the far rung; the one with an even difference (170 against 136) joined no
+    better than the others in whole cells (the morph to the far mesh's spacing had too short a
+    cell: angles of 49.8°). With the bridge's cells cut in two the cascades and the morph get
+    room: the glyph meshes (refused before), checked from outside."""
+    pytest.importorskip("matplotlib")
+    from quadmesh.families import glyph_outline
+
+    xy = glyph_outline("m", "STIXGeneral")
+    r = mesh_polygon(xy)
+    assert any(t.kind == "corridor" and t.mesh.start is not None for t in r.thin)  # a bridge
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
 def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut():
     """A C-shaped stroke with a round blob at each end: the cuts cross the stroke inside it at
     angles in [60°, 120°] (with the cells' margin) on both walls; the two sides tile the

@@ -2020,26 +2020,29 @@ def mesh_arm(
     ``start_points`` (the mesh of the part before it), that rung carries their points on it and
     the cap cell's quads are dropped. ``body_points`` None: the ladder reaches the far tip (no
     body after it)."""
-    fixed = {}
-    if body_points is not None:
-        fixed[len(lay.rungs) - 1] = _rung_params(lay, len(lay.rungs) - 1, body_points)
-    if start_points is not None:
-        if 0 in fixed or not lay.kind or lay.kind[0] != "cap":
-            raise ThinPartError("a bridge needs a cap cell before its first rung")
-        fixed[0] = _rung_params(lay, 0, start_points)
-    cut = fixed
+    if start_points is not None and (not lay.kind or lay.kind[0] != "cap"):
+        raise ThinPartError("a bridge needs a cap cell before its first rung")
     try:
-        cm_t = _mesh_layout(lay, z, across, cut, transitions=True)
+        cm = _mesh_fixed(lay, z, across, body_points, start_points)
     except ThinPartError:
-        cm_t = None
-    try:
-        cm = _mesh_layout(lay, z, across, cut)
-    except ThinPartError:
-        if cm_t is None:
+        if lay.cell_rungs is None or start_points is None or body_points is None:
             raise
-        cm = cm_t
-    if cm_t is not None and len(cm_t.quads) < len(cm.quads):
-        cm = cm_t
+        # a bridge between two meshes: its runs may be too short for the transition cascades
+        # and the morph to the far mesh's spacing (a run of one cell has no room for both);
+        # its ladder cells cut into 2, then 4 along their length (bilinear sub-cells: their
+        # corners stay in [60°, 120°]) give them room — only when the whole cells fail, so
+        # that every bridge that joined before keeps its mesh
+        for parts in SPLIT_PARTS:
+            try:
+                cm = _mesh_fixed(
+                    split_ladder_cells(lay, z, parts), z, across, body_points, start_points
+                )
+            except ThinPartError:
+                continue
+            break
+        else:
+            raise
+    lay = cm.layout
     keep = np.ones(len(cm.quads), dtype=bool)
     if start_points is not None:
         keep = cm.cell != 0  # the virtual cap
@@ -2053,6 +2056,112 @@ def mesh_arm(
         lay,
         None if cm.cut is None else remap[cm.cut],
         remap[cm.start],
+    )
+
+
+def _mesh_fixed(
+    lay: CorridorLayout,
+    z: np.ndarray,
+    across: int,
+    body_points: np.ndarray | None,
+    start_points: np.ndarray | None,
+) -> CorridorMesh:
+    """The layout ``lay`` meshed with its last rung on ``body_points`` and its first on
+    ``start_points`` (either may be None), with and without transition cascades; the mesh
+    with fewer quads of those that close (ThinPartError from the plain one if none does)."""
+    fixed = {}
+    if body_points is not None:
+        fixed[len(lay.rungs) - 1] = _rung_params(lay, len(lay.rungs) - 1, body_points)
+    if start_points is not None:
+        fixed[0] = _rung_params(lay, 0, start_points)
+    try:
+        cm_t = _mesh_layout(lay, z, across, fixed, transitions=True)
+    except ThinPartError:
+        cm_t = None
+    try:
+        cm = _mesh_layout(lay, z, across, fixed)
+    except ThinPartError:
+        if cm_t is None:
+            raise
+        cm = cm_t
+    if cm_t is not None and len(cm_t.quads) < len(cm.quads):
+        cm = cm_t
+    return cm
+
+
+#: A bridge whose cells do not join its two meshes is tried again with every ladder cell cut
+#: into this many cells along its length (STIX "m": a run of one cell between the cut and a
+#: bend, 218 points on the cut against 24 on the bend's rung).
+SPLIT_PARTS = (2, 4)
+
+
+def split_ladder_cells(lay: CorridorLayout, z: np.ndarray, parts: int) -> CorridorLayout:
+    """``lay`` with every ladder cell cut into ``parts`` cells by rungs at the fractions
+    j/parts of its two walls (the bilinear isolines of the cell: every sub-cell's corners are
+    angles of its bilinear grid, in [60°, 120°] with the cell's own). Fans, caps and sectors
+    are kept; rung and cell indices are renumbered in order (the first cell stays first)."""
+    V = np.asarray(lay.vertices, dtype=np.complex128)
+    zz = np.asarray(z, dtype=np.complex128)
+    e = np.roll(zz, -1) - zz
+    verts = [V]
+    edge_of = [np.asarray(lay.edge_of)]
+    count = V.size
+
+    def add(pts: np.ndarray) -> np.ndarray:
+        nonlocal count
+        t = np.clip((((pts[:, None] - zz[None, :]) / e[None, :]).real), 0.0, 1.0)
+        dist = np.abs(zz[None, :] + t * e[None, :] - pts[:, None])
+        verts.append(pts)
+        edge_of.append(np.argmin(dist, axis=1))
+        ids = np.arange(count, count + pts.size)
+        count += pts.size
+        return ids
+
+    ladder_after = {}  # old rung k -> the ladder cell from k to k + 1
+    for c, (kind, (k0, k1)) in enumerate(zip(lay.kind, lay.cell_rungs)):
+        if kind == "ladder" and k1 == k0 + 1:
+            (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+            if a != a2 and b != b2:
+                ladder_after[int(k0)] = c
+    rungs: list[tuple[int, int]] = []
+    new_index = {}
+    inner: dict[int, list[tuple[int, int]]] = {}
+    frac = np.arange(1, parts) / parts
+    for k, (a, b) in enumerate(lay.rungs):
+        new_index[k] = len(rungs)
+        rungs.append((int(a), int(b)))
+        c = ladder_after.get(k)
+        if c is not None:
+            a2, b2 = lay.rungs[k + 1]
+            la = add(V[a] + frac * (V[a2] - V[a]))
+            lb = add(V[b] + frac * (V[b2] - V[b]))
+            inner[c] = list(zip(la.tolist(), lb.tolist(), strict=True))
+            rungs.extend(inner[c])
+    cells, kinds, cell_rungs = [], [], []
+    for c, (ring, kind, (k0, k1)) in enumerate(zip(lay.cells, lay.kind, lay.cell_rungs)):
+        r0 = -1 if k0 < 0 else new_index[int(k0)]
+        r1 = -1 if k1 < 0 else new_index[int(k1)]
+        if c not in inner:
+            cells.append([int(x) for x in ring])
+            kinds.append(kind)
+            cell_rungs.append((r0, r1))
+            continue
+        (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+        chain = [(int(a), int(b)), *inner[c], (int(a2), int(b2))]
+        for j in range(parts):
+            (u, v), (u2, v2) = chain[j], chain[j + 1]
+            swap = {int(a): u, int(b): v, int(a2): u2, int(b2): v2}
+            cells.append([swap[int(x)] for x in ring])
+            kinds.append("ladder")
+            cell_rungs.append((r0 + j, r0 + j + 1))
+    return dataclasses.replace(
+        lay,
+        vertices=np.concatenate(verts),
+        cells=np.asarray(cells, dtype=np.int64),
+        kind=tuple(kinds),
+        rungs=np.asarray(rungs, dtype=np.int64),
+        edge_of=np.concatenate(edge_of).astype(np.int64),
+        cell_rungs=np.asarray(cell_rungs, dtype=np.int64),
     )
 
 
