@@ -173,13 +173,12 @@ def mesh_polygon(
 
 def _sized_retry(options: MeshOptions, exc: QuadmeshError) -> MeshOptions | None:
     """The options for one more run after the user's polygon failed with ``exc`` in a stage
-    of the paper's construction: arcs chosen for size (``arc_choice="sized"``), or None (bad
-    input, cancelled, sized arcs already, ``adaptive=False`` — the user fixed the
-    parameters —, or a part inside an arm or bridge search: the retry is for the user's
-    polygon as a whole). Larger crosscuts near reflex corners give
-    quads that float64 can hold (Computer Modern "g": a 323° ear's sector of 6e-11 failed the
-    final check) and parts that mesh where centred arcs made them fail (Computer Modern "s",
-    67,217 quads)."""
+    of the paper's construction: arcs chosen for size (``arc_choice="sized"``), or None for
+    bad input, a cancelled run, sized arcs already, ``adaptive=False`` (the user fixed the
+    parameters) and the parts inside an arm or bridge search (the retry is for the user's
+    polygon as a whole). Larger crosscuts near reflex corners give quads that float64 can
+    hold (Computer Modern "g": a 323° ear's sector of 6e-11 failed the final check) and
+    parts that mesh where centred arcs made them fail (Computer Modern "s", 67,217 quads)."""
     if isinstance(exc, (PolygonError, Cancelled)) or options.arc_choice != "centred":
         return None
     if not options.adaptive:

@@ -56,10 +56,11 @@ class MeshOptions:
         arc_choice: how the arcs J_k are ranked: ``"centred"`` (the default) prefers the
             arc whose centre is closest to the prevertex, then the size nearest g/φ =
             ``crosscut_ratio``; ``"sized"`` counts offsets up to 0.15 φ as centred and
-            weighs size more, so crosscuts near reflex corners are larger. When the mesh of
-            the centred arcs fails the final check (quads too small for float64 where they
-            are), :func:`~quadmesh.mesh_polygon` meshes the polygon again with ``"sized"``
-            arcs and ``MeshResult.options`` says so.
+            weighs size more, so crosscuts near reflex corners are larger. When the paper's
+            construction fails on the user's polygon with centred arcs (a stage refuses it, or
+            its mesh fails the final check: quads too small for float64 where they are),
+            :func:`~quadmesh.mesh_polygon` meshes it once more with ``"sized"`` arcs (not
+            with ``adaptive=False``) and ``MeshResult.options`` says so.
         lemma_A: the expansion factor A of Lemma 2.2 handed to the disk construction. Any
             A > 1 satisfies the lemma; a smaller A lets the arcs J_k ⊃ √A·I_k grow closer to
             their neighbours (φ ≤ g/(2(√A/1.02 + 0.9))), 4: φ up to g/5.7 (16: g/9.6).
