@@ -2020,7 +2020,9 @@ def mesh_arm(
     ``start_points`` (the mesh of the part before it), that rung carries their points on it and
     the cap cell's quads are dropped. ``body_points`` None: the ladder reaches the far tip (no
     body after it)."""
-    if start_points is not None and (not lay.kind or lay.kind[0] != "cap"):
+    if start_points is not None and (
+        not lay.kind or lay.kind[0] != "cap" or (body_points is not None and len(lay.rungs) < 2)
+    ):
         raise ThinPartError("a bridge needs a cap cell before its first rung")
     try:
         cm = _mesh_fixed(lay, z, across, body_points, start_points)
