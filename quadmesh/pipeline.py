@@ -153,14 +153,18 @@ def mesh_polygon(
     failed = True
     try:
         with running(progress, cancel) as run, blas_threads(options.blas_threads):
+            first: dict[str, str] = {}
             try:
-                result = _run_stages(polygon, options, run, runner)
+                result = _run_stages(polygon, options, run, runner, first)
             except QuadmeshError as exc:
                 sized = _sized_retry(options, exc)
                 if sized is None:
                     raise
                 try:
-                    result = _run_stages(polygon, sized, run, runner)
+                    # with method="blocks" the layout search is not repeated: it failed
+                    result = _run_stages(
+                        polygon, sized, run, runner, blocks_failed=first.get("fallback")
+                    )
                 except Cancelled:
                     raise
                 except QuadmeshError:
@@ -189,10 +193,17 @@ def _sized_retry(options: MeshOptions, exc: QuadmeshError) -> MeshOptions | None
 
 
 def _run_stages(
-    polygon: object, options: MeshOptions, run: Run | None, runner: PieceRunner
+    polygon: object,
+    options: MeshOptions,
+    run: Run | None,
+    runner: PieceRunner,
+    notes: dict[str, str] | None = None,
+    blocks_failed: str | None = None,
 ) -> MeshResult:
     """The stages of :func:`mesh_polygon`, reporting to ``run`` (None: no callbacks) and
-    running the thick pieces' own stages through ``runner``."""
+    running the thick pieces' own stages through ``runner``. ``notes["fallback"]`` receives
+    why ``method="blocks"`` fell back (also when a later stage fails); ``blocks_failed``: that
+    reason from an earlier run of the same polygon, whose layout search is then skipped."""
     from .decompose import DecomposeOptions, decompose
     from .mesh import finalize_mesh
 
@@ -211,8 +222,8 @@ def _run_stages(
     work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
-    blocks = fallback = None
-    if options.method == "blocks":
+    blocks, fallback = None, blocks_failed
+    if options.method == "blocks" and blocks_failed is None:
         from .blocks import BlockLayoutError, mesh_blocks
 
         report("blocks", 0.05, 0.85)
@@ -254,6 +265,8 @@ def _run_stages(
                 mesh_origin=mesh_origin,
             )
 
+    if notes is not None and fallback:
+        notes["fallback"] = fallback
     # the paper's construction, also for the parts that arms and bridges cut off (with blocks
     # chosen and no layout found, those parts were meshed by blocks again: their cuts carried
     # the layouts' points, which no ladder joined — the STIX "G" was refused after 75 s)
