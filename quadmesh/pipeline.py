@@ -636,7 +636,9 @@ def _mesh_bridge(
     stuck, the rest behind it (the far body) meshed by :func:`mesh_polygon`. The bridge's first
     rung takes the near part's points on the cut and its last rung the far body's; their counts
     meet by transition cascades, which change a count by two at a time, so a far cut whose
-    count differs in parity is moved one to three rungs back (:func:`_bridge_mesh`). Splits whose
+    count differs in parity is moved one to three rungs back (:func:`_bridge_mesh`); when no
+    cut of any split joins so, the cuts of odd difference already meshed are joined by a
+    cascade that starts with a parity row (one wall carries one more point). Splits whose
     far side is one corridor (no far body) are tried first; at most :data:`BRIDGE_TRIES` splits
     and :data:`BRIDGE_MESHES` part meshes, for at most :data:`BRIDGE_MAX_VERTICES` vertices;
     first with parts that are not bridged again, then with parts that may be, down to
@@ -683,12 +685,16 @@ def _bridge_search(
     splits = []
     for cut in bridge_cuts(dec.polygon.z):
         for near, far in ((cut.first, cut.second), (cut.second, cut.first)):
-            got = bridge_layout(far)
+            got = bridge_layout(far, min_rungs=2)
             if got is not None:
                 splits.append((near, *got))
-    # a far side that is one corridor first: its bridge has one fixed end only
+    # a far side that is one corridor first: its bridge has one fixed end only; bridges of a
+    # single cell (across a straight stem) after all others
     splits.sort(key=lambda t: t[3] is not None)
-    for near, lay, q, body in splits[:BRIDGE_TRIES]:
+    single = [t for t in splits if len(t[1].rungs) < 3]
+    splits = [t for t in splits if len(t[1].rungs) >= 3][:BRIDGE_TRIES] + single[:BRIDGE_TRIES]
+    odd: list[tuple] = []  # meshed far bodies whose cut count differs in parity
+    for near, lay, q, body in splits:
         near_r = part(near)
         if near_r is None:
             continue
@@ -700,20 +706,24 @@ def _bridge_search(
         # then puts another number of points on the cut; runs keep their parity)
         ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q)]
         for lay_k, body_k in ends:
-            got = _bridge_mesh(lay_k, q, near_r, start, body_k, part)
+            got = _bridge_mesh(lay_k, q, near_r, start, body_k, part, odd)
             if got is not None:
                 return got
+    # only then the cuts of odd difference (every bridge that joined before keeps its mesh)
+    for args in odd:
+        got = _bridge_join(*args)
+        if got is not None:
+            return got
     return None
 
 
-def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body, part):
+def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body, part, odd: list):
     """The bridge ``lay`` (first rung on the near part's cut, ``start``: the near mesh's points
     there in order) meshed and glued to the near part's mesh and, when ``body`` is given, to
     that body's mesh (``part(body)``): (assembler, pieces, thin parts, decomposition) as in
-    :func:`_mesh_bridge`, or None when the body does not mesh, the two ends' point counts
-    differ in parity, or the ladder cannot join them."""
-    from .thin.corridor import mesh_arm
-
+    :func:`_mesh_bridge`, or None when the body does not mesh, the ladder cannot join the two
+    ends, or their point counts differ in parity — then the arguments of :func:`_bridge_join`
+    are appended to ``odd`` for a later try."""
     v = lay.vertices
     body_r, end = None, None
     if body is not None:
@@ -721,8 +731,20 @@ def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body
         if body_r is None:
             return None
         end = _cut_ids(body_r.mesh.z, v[lay.rungs[-1][0]], v[lay.rungs[-1][1]])
-        if end is None or (end.size - start.size) % 2:
+        if end is None:
             return None
+        if (end.size - start.size) % 2:
+            odd.append((lay, q, near_r, start, body_r, end))
+            return None
+    return _bridge_join(lay, q, near_r, start, body_r, end)
+
+
+def _bridge_join(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body_r, end):
+    """The bridge ``lay`` meshed between the near part's points ``start`` on its first rung and,
+    when ``body_r`` is given, that mesh's points ``end`` on its last rung, glued to both
+    meshes; None when the ladder cannot join them."""
+    from .thin.corridor import mesh_arm
+
     try:
         arm = mesh_arm(
             lay, q, None if body_r is None else body_r.mesh.z, start_points=near_r.mesh.z

@@ -192,20 +192,35 @@ def pair_rows(heights: ArrayLike, n_pairs: int) -> NDArray[np.int64]:
     return np.array(out[::-1], dtype=np.int64)
 
 
-def coarse_rows(p_fine: ArrayLike, pairs: ArrayLike) -> tuple[NDArray[np.float64], str]:
+def coarse_rows(
+    p_fine: ArrayLike, pairs: ArrayLike, half: str | None = None
+) -> tuple[NDArray[np.float64], str]:
     """The coarse parameters and row kinds of a transition whose fine side carries
-    ``p_fine`` (k + 2·len(pairs) + 1 increasing values from 0 to 1) and whose pairs start at
-    the coarse rows ``pairs`` (from :func:`pair_rows` on the coarse rows).
+    ``p_fine`` (k + 2·len(pairs) + 1 increasing values from 0 to 1, one more with ``half``)
+    and whose pairs start at the coarse rows ``pairs`` (from :func:`pair_rows` on the coarse
+    rows).  ``half`` ("low" or "high", no pairs then): a *parity row* instead, the first
+    coarse row split as the upper row of a pair ("N", its shared line being the wall p = 0) or
+    the last one as the lower row ("F", shared line p = 1): :func:`transition_mesh`.
 
     Each split coarse row covers two fine rows; the fine value between them is dropped on the
     coarse side (it starts the row's new middle line).  Returns ``(p_coarse, kinds)`` with
     ``kinds[i]`` one of "P" (plain), "F", "N"."""
     pf = np.asarray(p_fine, dtype=np.float64)
     pairs = np.asarray(pairs, dtype=np.int64)
-    k = pf.size - 1 - 2 * pairs.size
+    if half not in (None, "low", "high"):
+        raise ValueError(f"half must be None, 'low' or 'high', not {half!r}")
+    if half is not None and pairs.size:
+        raise ValueError("a parity row is built on its own, without pairs")
+    k = pf.size - 1 - 2 * pairs.size - (half is not None)
+    if k < 1:
+        raise ValueError(f"{pf.size - 1} fine rows leave no coarse row")
     kinds = ["P"] * k
     for i in pairs:
         kinds[i], kinds[i + 1] = "F", "N"
+    if half == "low":
+        kinds[0] = "N"
+    elif half == "high":
+        kinds[-1] = "F"
     keep, f = [0], 0
     for c in kinds:
         f += 2 if c != "P" else 1
@@ -224,7 +239,8 @@ class TransitionMesh:
         fine: point indices on the fine side (rung u = 1), p ascending.
         wall0: point indices along the side p = 0, u ascending (from the coarse side).
         wall1: point indices along the side p = 1, u ascending.
-        u: the wall parameters of ``wall0`` and ``wall1`` (both walls carry the same).
+        u: the wall parameters of ``wall0`` and ``wall1`` (both walls carry the same, except
+            that the wall of a parity row (``parity``) carries its point ``W`` too).
         p_coarse: the coarse side's parameters (from c0 to c3).
         margin: smallest distance (degrees) of the placed angles from 60° and 120° (the exact
             120° angles at the valence-3 vertices excepted).
@@ -242,6 +258,7 @@ class TransitionMesh:
     p_coarse: NDArray[np.float64]
     margin: float
     polished: int = 0
+    parity: str = ""
 
 
 def _ruled(corners: NDArray[np.complex128], u: ArrayLike, p: ArrayLike) -> NDArray[np.complex128]:
@@ -283,13 +300,21 @@ def transition_mesh(
     at: float = 0.5,
     p_coarse: ArrayLike | None = None,
     polish: list[int] | None = None,
+    half: str | None = None,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
     [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
 
     ``p_fine``: the fine side's parameters (from c1 to c2, increasing from 0 to 1);
     ``pairs``: lower coarse row of every pair (:func:`pair_rows`), which fixes the coarse
-    side's parameters (:func:`coarse_rows`); ``u``: wall parameters wanted on both walls
+    side's parameters (:func:`coarse_rows`); ``half`` ("low" or "high", without pairs): one
+    *parity row* instead, the fine side carrying one row more than the coarse side.  A pair's
+    two split rows share a straight line on which the pair puts its extra point ``W`` and its
+    moved ``O``, each with angles adding up to 180° on either side; the parity row is one of
+    them with that line being a wall of the cell (p = 0 for "low", p = 1 for "high"), so the
+    wall carries ``W`` as one more point than the other wall (a quad mesh of a disk has an even
+    number of boundary edges: the count across can change by one only so) and ``W`` and ``O``
+    stay on the wall.  ``u``: wall parameters wanted on both walls
     c0 -> c1 and c3 -> c2 (increasing from 0 to 1; default none inside); ``at``: where along
     the cell (a wall parameter) the rows split.
 
@@ -303,16 +328,18 @@ def transition_mesh(
     cn = np.asarray(corners, dtype=np.complex128)
     pf = np.asarray(p_fine, dtype=np.float64)
     pairs = np.asarray(pairs, dtype=np.int64)
-    pc, kinds = coarse_rows(pf, pairs)
+    pc, kinds = coarse_rows(pf, pairs, half)
     k = pc.size - 1
     if not 0.0 < at < 1.0:
         raise ValueError("the split must lie inside the cell (0 < at < 1)")
     # the split column and its neighbours, COLUMN_GAP pair heights away
     lines = _ruled(cn, at, pc)
     gap = 0.0
+    h = np.abs(np.diff(lines))
     if pairs.size:
-        h = np.abs(np.diff(lines))
         gap = COLUMN_GAP * float(np.maximum(h[pairs], h[pairs + 1]).max())
+    elif half is not None:
+        gap = COLUMN_GAP * float(h[0] if half == "low" else h[-1])
     du_len = float(np.abs(_ruled(cn, 1.0, pc) - _ruled(cn, 0.0, pc)).min())
     du = gap / du_len
     want = np.array([0.0, 1.0]) if u is None else np.asarray(u, dtype=np.float64)
@@ -362,6 +389,8 @@ def transition_mesh(
     o_base = _ruled(cn, u[column], pc)
     o_ids = new(o_base.copy())
     w_line = pairs + 1
+    if half is not None:
+        w_line = np.array([0 if half == "low" else k], dtype=np.int64)
     w_ids = new(_ruled(cn, u[column], pc[w_line]))
     z = np.concatenate(pts)
     # corners of the cell exactly
@@ -424,17 +453,31 @@ def transition_mesh(
     h_mid = 0.5 * (h_lo + h_hi)
     z[o_ids[i0]] = _ruled(cn, u[column], pc[i0] + _BEND * (pc[i1] - pc[i0]))
     z[o_ids[i2]] = _ruled(cn, u[column], pc[i2] - _BEND * (pc[i2] - pc[i1]))
-    z[w_ids] = _ruled(cn, u[column] - _W_BACK * h_mid / speed[i1], pc[i1])
-    z[o_ids[i1]] = _ruled(cn, u[column] + _O_AHEAD * h_mid / speed[i1], pc[i1])
+    if pairs.size:
+        z[w_ids] = _ruled(cn, u[column] - _W_BACK * h_mid / speed[i1], pc[i1])
+        z[o_ids[i1]] = _ruled(cn, u[column] + _O_AHEAD * h_mid / speed[i1], pc[i1])
+    free_sets = np.stack([o_ids[i0], w_ids[: pairs.size], o_ids[i1], o_ids[i2]], axis=1)
+    free_along = np.zeros(free_sets.shape, dtype=np.complex128)  # 0: free in the plane
+    groups = [np.array([2 * g, 2 * g + 1]) for g in range(pairs.size)]  # rows in ``spec``
+    if half is not None:
+        # the parity row: its shared line is the wall (W and its O stay on it), its far O
+        # bends the line on the other side, as in a pair
+        s_line, f_line = (0, 1) if half == "low" else (k, k - 1)
+        hh = float(np.abs(o_base[f_line] - o_base[s_line]))
+        z[o_ids[f_line]] = _ruled(cn, u[column], pc[f_line] + _BEND * (pc[s_line] - pc[f_line]))
+        z[w_ids[0]] = _ruled(cn, u[column] - _W_BACK * hh / speed[s_line], pc[s_line])
+        z[o_ids[s_line]] = _ruled(cn, u[column] + _O_AHEAD * hh / speed[s_line], pc[s_line])
+        d = (c1 - c0) + pc[s_line] * (c0 - c1 + c2 - c3)
+        free_sets = np.array([[o_ids[f_line], w_ids[0], o_ids[s_line]]], dtype=np.int64)
+        free_along = np.array([[0.0, d / abs(d), d / abs(d)]], dtype=np.complex128)
+        groups = [np.array([0])]
     z[spec[:, 0]] = fermat_point(z[spec[:, 1]], z[spec[:, 2]], z[spec[:, 3]])
 
     exact_all = np.isin(quad_arr, q_ids)
     # per pair: the quads around its free points; polish the pairs that miss MIN_MARGIN
-    free_sets = np.stack([o_ids[i0], w_ids, o_ids[i1], o_ids[i2]], axis=1)
     polished = 0
-    for g in range(pairs.size):
+    for g, rows in enumerate(groups):
         free = free_sets[g]
-        rows = np.array([2 * g, 2 * g + 1])  # this pair's two split rows in ``spec``
         qs = spec[rows, 0]
         near = np.isin(quad_arr, np.concatenate([free, qs])).any(axis=1)
         lq, ex = quad_arr[near], exact_all[near]
@@ -444,7 +487,7 @@ def transition_mesh(
             if polish[0] <= 0:
                 break
             polish[0] -= 1
-        z = _polish(z, lq, ex, free, spec[rows])
+        z = _polish(z, lq, ex, free, spec[rows], free_along[g])
         polished += 1
     margin = _margin(z, quad_arr, exact_all)
     room = _fermat_room(z, spec)
@@ -460,6 +503,10 @@ def transition_mesh(
         )
     wall0 = np.concatenate([coarse_ids[0], [o_ids[0]], fine_ids[0]])
     wall1 = np.concatenate([coarse_ids[-1], [o_ids[-1]], fine_ids[-1]])
+    if half == "low":
+        wall0 = np.concatenate([coarse_ids[0], w_ids, [o_ids[0]], fine_ids[0]])
+    elif half == "high":
+        wall1 = np.concatenate([coarse_ids[-1], w_ids, [o_ids[-1]], fine_ids[-1]])
     return TransitionMesh(
         points=z,
         quads=quad_arr,
@@ -471,6 +518,7 @@ def transition_mesh(
         p_coarse=p_side,
         margin=margin,
         polished=polished,
+        parity=half or "",
     )
 
 
@@ -480,9 +528,11 @@ def _polish(
     exact: NDArray[np.bool_],
     free: NDArray[np.int64],
     spec: NDArray[np.int64],
+    along: NDArray[np.complex128] | None = None,
 ) -> NDArray[np.complex128]:
     """Move the ``free`` points (the Fermat points of ``spec`` following them) to maximise the
-    smallest margin of the angles of ``quads`` inside [60°, 120°].
+    smallest margin of the angles of ``quads`` inside [60°, 120°].  ``along``: per free
+    point 0 (it moves in the plane) or the unit direction of the straight wall it stays on.
 
     A soft minimum of the margins (log-sum-exp at temperatures 3°, 1°, 0.3°, BFGS) leads to
     the neighbourhood of the best placement, then SLSQP on the epigraph form (maximise t with
@@ -498,10 +548,13 @@ def _polish(
     base = z[free].copy()
     h = float(np.abs(z[spec[:, 1]] - z[spec[:, 3]]).max())
     nf = free.size
+    dirs = np.zeros(nf, dtype=np.complex128) if along is None else np.asarray(along)
+    on_wall = dirs != 0
 
     def at(x: NDArray[np.float64]) -> NDArray[np.complex128]:
         zz = z.copy()
-        zz[free] = base + h * (x[:nf] + 1j * x[nf : 2 * nf])
+        step = np.where(on_wall, x[:nf] * dirs, x[:nf] + 1j * x[nf : 2 * nf])
+        zz[free] = base + h * step
         zz[spec[:, 0]] = fermat_point(zz[spec[:, 1]], zz[spec[:, 2]], zz[spec[:, 3]], refine=False)
         return zz
 
@@ -610,6 +663,23 @@ def _even_out(p: NDArray[np.float64], passes: int = 3) -> NDArray[np.float64]:
     return q
 
 
+def _tilted(
+    p: NDArray[np.float64], p_even: NDArray[np.float64], sub: NDArray[np.complex128]
+) -> NDArray[np.float64]:
+    """``p`` moved towards ``p_even`` only as far as the slice ``sub`` (a ruled cell, rows
+    along c0 -> c3) allows with its row lines tilted by at most :data:`EVEN_TILT`: on strongly
+    graded rows (a mesh's points on a cut, neighbouring rows up to 40 times apart) a stage only
+    a few thin rows long cannot even out the thick ones.  A convex combination of two
+    increasing lists, so still increasing."""
+    width = float(np.abs(sub[3] - sub[0]))
+    along = float(min(abs(sub[1] - sub[0]), abs(sub[2] - sub[3])))
+    shift = float(np.abs(p_even - p).max()) * width
+    # the stage's coarse grid (where the rows move) ends a column gap before its split column
+    # in the middle of the slice: 1/2 - 1/STAGE_LENGTH of its length
+    room = along * (0.5 - 1.0 / STAGE_LENGTH) * np.tan(np.radians(EVEN_TILT))
+    return p if shift <= 0.0 else p + (p_even - p) * min(1.0, room / shift)
+
+
 #: Passes of neighbour averaging that even out a cascade's fine rows first, and the largest
 #: tilt (degrees) of a row line in the slice that does it.
 EVEN_PASSES = 40
@@ -627,6 +697,7 @@ def transition_cascade(
     partial: bool = False,
     n_along: int = 1,
     budget: list[int] | None = None,
+    tilt: bool = False,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -635,22 +706,26 @@ def transition_cascade(
     side, every stage splits as many pairs as :func:`plan_pairs` finds (never more than are
     still needed) in a slice :data:`STAGE_LENGTH` gaps long; the rest of the cell towards the
     coarse side is a bilinear grid of the coarse rows, ``n_along`` segments long (at least
-    one).  ``len(p_fine) - 1 - n_coarse`` must be even and non-negative.
+    one).  ``len(p_fine) - 1 - n_coarse`` must be non-negative; when it is odd, the first
+    stage is a *parity row* (:func:`transition_mesh` with ``half``: one of the cell's walls
+    carries one point more than the other), tried at the wall p = 0, then at p = 1.
 
     With ``partial``, the cascade stops at the first stage that does not fit (or finds no
     place to split) and the coarse side carries the rows reached so far
     (:attr:`TransitionMesh.p_coarse`), possibly still more than ``n_coarse``.  ``budget``
     (a one-item list, shared by the caller's cascades and decreased here) bounds how many pairs
-    may be optimised; when it is spent, stages are built from the template alone.
+    may be optimised; when it is spent, stages are built from the template alone.  ``tilt``:
+    a stage that fails with its coarse rows evened out is tried again with them evened only as
+    far as its grid allows (:func:`_tilted`) before fewer pairs are tried.
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
     cn = np.asarray(corners, dtype=np.complex128)
     pf = np.asarray(p_fine, dtype=np.float64)
     need = pf.size - 1 - int(n_coarse)
-    if need < 0 or need % 2:
+    if need < 0:
         raise TransitionError(
-            f"a cell cannot go from {pf.size - 1} to {n_coarse} rows by pairs of split rows"
+            f"a cell cannot go from {pf.size - 1} to {n_coarse} rows by splitting rows"
         )
     stages: list[tuple[float, float, TransitionMesh]] = []
     u_hi, q = 1.0, pf
@@ -690,6 +765,35 @@ def transition_cascade(
                 )
                 stages.append((1.0 - du, 1.0, tm))
                 u_hi, q = 1.0 - du, q_even
+    if need % 2:
+        tm_par = None
+        for half in ("low", "high"):
+            pc, _ = coarse_rows(q, [], half)
+            h = np.abs(np.diff(_ruled(cn, u_hi, pc)))
+            gap = COLUMN_GAP * float(h[0] if half == "low" else h[-1])
+            along = float(np.abs(_ruled(cn, 1.0, pc) - _ruled(cn, 0.0, pc)).min())
+            du = STAGE_LENGTH * gap / along
+            if du >= u_hi:
+                continue
+            lo = u_hi - du
+            sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
+            try:
+                tm_par = transition_mesh(
+                    sub, q, [], p_coarse=_even_out(pc), polish=budget, half=half
+                )
+            except TransitionError:
+                continue
+            break
+        if tm_par is None:
+            if not partial:
+                raise TransitionError(
+                    f"a cell has no room to go from {pf.size - 1} to {n_coarse} rows across "
+                    "(an odd difference needs a row split at one of its walls)"
+                )
+        else:
+            stages.append((lo, u_hi, tm_par))
+            u_hi, q = lo, tm_par.p_coarse
+            want = (q.size - 1 - int(n_coarse)) // 2
     while q.size - 1 > n_coarse:
         pairs = plan_pairs(q, min(want, (q.size - 1 - int(n_coarse)) // 2))
         if pairs.size == 0:
@@ -712,11 +816,17 @@ def transition_cascade(
             )
         lo = u_hi - du
         sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
-        try:
-            tm = transition_mesh(sub, q, pairs, p_coarse=_even_out(pc), polish=budget)
-        except TransitionError:
-            if not partial:
-                raise
+        tm = None
+        evened = _even_out(pc)
+        for pe in (evened, _tilted(pc, evened, sub)) if tilt else (evened,):
+            try:
+                tm = transition_mesh(sub, q, pairs, p_coarse=pe, polish=budget)
+            except TransitionError:
+                if not partial:
+                    raise
+                continue
+            break
+        if tm is None:
             if pairs.size == 1:
                 break
             want = pairs.size // 2  # fewer pairs at a time: the thinnest, most even rows
@@ -769,4 +879,5 @@ def transition_cascade(
         u=np.array(u_walls),
         p_coarse=p_coarse,
         margin=margin,
+        parity="".join(tm.parity for _, _, tm in stages),
     )

@@ -480,3 +480,46 @@ def test_with_blocks_and_no_layout_the_arms_body_is_meshed_by_the_papers_constru
     ref = mesh_polygon(poly)
     assert np.array_equal(r.mesh.quads, ref.mesh.quads)
     assert np.array_equal(r.mesh.vertices, ref.mesh.vertices)
+
+
+@pytest.mark.parametrize(("n_start", "n_end"), [(41, 28), (28, 41), (33, 32)])
+def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
+    """A bridge between two meshes whose cuts carry counts differing by an odd number (a quad
+    mesh of a disk has an even number of boundary edges, so the pairs of split rows alone
+    cannot join them): a cascade starting with a parity row, one wall one point longer. The
+    bridge's mesh — the C-shaped stroke of the test above, its first rung carrying ``n_start``
+    graded points, its last rung ``n_end`` — is checked from outside:
+    convex counter-clockwise quads, every angle in [60°, 120°] away from polygon corners,
+    conformity, and both rungs carrying exactly the given points."""
+    from quadmesh.thin.corridor import bridge_cuts, bridge_layout, mesh_arm
+
+    t = np.linspace(0.15, 0.85, 60) * 2 * np.pi
+    centre = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
+    g = shapely.LineString(centre).buffer(0.4, cap_style="flat", join_style="round")
+    for p in (centre[0], centre[-1]):
+        g = g.union(shapely.Point(p).buffer(1.0, quad_segs=8))
+    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-4), 1.0)
+    z = validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+    c = bridge_cuts(z)[0]
+    lay, q, body = bridge_layout(c.second) or bridge_layout(c.first)
+    assert body is not None
+
+    def on_rung(k: int, n: int) -> np.ndarray:
+        a, b = lay.vertices[lay.rungs[k]]
+        s = np.linspace(0.0, 1.0, n) ** 1.2  # graded towards one wall
+        return a + s * (b - a)
+
+    start, end = on_rung(0, n_start), on_rung(len(lay.rungs) - 1, n_end)
+    cm = mesh_arm(lay, q, end, start_points=start)
+    v, quads = cm.vertices, cm.quads
+    assert np.allclose(np.sort_complex(v[cm.start]), np.sort_complex(start), atol=1e-12)
+    assert np.allclose(np.sort_complex(v[cm.cut]), np.sort_complex(end), atol=1e-12)
+    p = v[quads] - v[quads][:, :1]
+    e = np.roll(p, -1, axis=1) - p
+    assert np.all((np.conj(e) * np.roll(e, -1, axis=1)).imag > 0)
+    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e))) % 360.0
+    corner = np.isin(v[quads], q)
+    assert ang[~corner].min() >= 60 - 1e-9 and ang[~corner].max() <= 120 + 1e-9
+    he = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+    _, cnt = np.unique(he, axis=0, return_counts=True)
+    assert cnt.max() == 2

@@ -284,6 +284,21 @@ def test_a_bridge_joins_a_bowl_and_a_ball_terminal() -> None:
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
+def test_a_single_cell_bridge_joins_counts_of_odd_difference() -> None:
+    """STIX "k": its stem is straight, so every bridge across it is a single ladder cell, and
+    the two meshes it joins put 183 and 136 points on their cuts — an odd difference, which
+    pairs of split rows cannot meet. The cell is cut along its length and the cascade starts
+    with a parity row (one wall one point longer): the glyph meshes (refused before), checked
+    from outside."""
+    from quadmesh import mesh_polygon
+
+    xy = glyph_outline("k", "STIXGeneral")
+    r = mesh_polygon(xy)
+    assert any(t.kind == "corridor" and t.mesh.start is not None for t in r.thin)
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
 def test_info_names_the_bridge_it_would_try(tmp_path, capsys) -> None:
     """`quadmesh info` on Computer Modern "9": no corridor as a whole, no arm; it names the cut
     across the stroke and the corridor from it to the ball terminal."""
@@ -349,15 +364,25 @@ def test_a_piece_whose_arcs_fit_only_after_a_rotation_meshes() -> None:
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
-def test_a_piece_whose_map_fails_is_mapped_again_from_its_least_crowded_centre() -> None:
+def test_a_piece_whose_map_fails_is_mapped_again_from_its_least_crowded_centre(
+    monkeypatch,
+) -> None:
     """Computer Modern "6": a bowl with a long hook, not elongated enough to be examined before
     its map is solved (area < 6 inscribed radii squared), is crowded to ~1e-20 rad from its
-    largest inscribed disk and was refused; after the failure its map is solved again from the
-    least crowded centre (~4e-11 rad) and meshes."""
+    largest inscribed disk and was refused. A bridge across the hook meshes it now (78,826
+    quads); where no bridge joins (switched off here), the map is solved again from the
+    least crowded centre (~4e-11 rad) and it meshes too."""
+    import quadmesh.pipeline as pipeline
     from quadmesh import mesh_polygon
 
     xy = glyph_outline("6", "cmr10")
     r = mesh_polygon(xy)
+    assert any(t.kind == "corridor" for t in r.thin)
+    lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+    monkeypatch.setattr(pipeline, "_mesh_bridge", lambda *a, **k: None)
+    r = mesh_polygon(xy)
+    assert not any(t.kind == "corridor" for t in r.thin)
     assert any(np.isfinite(p.inscribed_gap) for p in r.decomposition.thick)
     lo, hi = independent_check(validate_polygon(xy).vertices, r.mesh.vertices, r.mesh.quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5

@@ -179,12 +179,78 @@ def test_cascade_goes_down_to_the_coarse_count(length, fine, coarse, grading):
     assert tm.coarse.size == coarse + 1 and tm.fine.size == fine + 1
 
 
-def test_cascade_refuses_a_short_cell_or_an_odd_difference():
+def test_cascade_refuses_a_short_cell():
     corners = np.array([0, 1, 1 + 1j, 1j])
     with pytest.raises(TransitionError):
         transition_cascade(corners, np.linspace(0, 1, 41), 10)
-    with pytest.raises(TransitionError, match="pairs"):
-        transition_cascade(corners, np.linspace(0, 1, 12), 10)
+    with pytest.raises(TransitionError, match="odd difference"):
+        transition_cascade(np.array([0, 0.2, 0.2 + 1j, 1j]), np.linspace(0, 1, 12), 10)
     # partial: as far as it fits, the coarse side carrying what was reached
     tm = transition_cascade(corners, np.linspace(0, 1, 41), 10, partial=True)
     assert 10 < tm.coarse.size - 1 <= 40 and (40 - (tm.coarse.size - 1)) % 2 == 0
+
+
+def _check_parity(tm, corners: np.ndarray, p_fine: np.ndarray) -> None:
+    """A mesh whose fine side has one row more than its coarse side (odd difference): one
+    wall (the one ``tm.parity`` names) carries one point more than the other, every point of
+    both walls lies on the cell's straight side, and the rest is as for any transition."""
+    _check_mesh(tm, corners, p_fine)
+    c0, c1, c2, c3 = corners
+    for ids, (a, b) in ((tm.wall0, (c0, c1)), (tm.wall1, (c3, c2))):
+        t = (tm.points[ids] - a) / (b - a)
+        assert np.abs(t.imag).max() <= 1e-12 and np.all(np.diff(t.real) > 0)
+    low = tm.parity.count("low") - tm.parity.count("high")
+    assert tm.wall0.size - tm.wall1.size == low and abs(low) == 1
+
+
+@pytest.mark.parametrize("half", ["low", "high"])
+def test_parity_row_in_random_convex_cells(half):
+    """One split row whose shared line is a wall: the fine side carries one row more than the
+    coarse side — random convex cells, 3–60 fine rows, any spacing; every cell either meshes
+    with every angle in range (the valence-3 vertex's three angles exactly 120°) or refuses
+    with TransitionError, and a large majority mesh."""
+    rng = np.random.default_rng(11 if half == "low" else 12)
+    ok = refused = 0
+    while ok + refused < 60:
+        length = rng.uniform(0.5, 6.0)
+        corners = np.array([0, length, length + 1j, 1j]) + (
+            rng.uniform(-0.25, 0.25, 4) + 1j * rng.uniform(-0.25, 0.25, 4)
+        )
+        if not cell_is_admissible(corners, 1.0):
+            continue
+        kf = int(rng.integers(3, 60))
+        p_fine = np.linspace(0, 1, kf + 1)
+        if rng.random() < 0.5:
+            p_fine = p_fine ** rng.uniform(0.7, 1.4)
+        try:
+            tm = transition_mesh(corners, p_fine, [], at=rng.uniform(0.3, 0.7), half=half)
+        except TransitionError as exc:
+            assert "rows" in str(exc)
+            refused += 1
+            continue
+        _check_parity(tm, corners, p_fine)
+        assert tm.parity == half and tm.coarse.size == kf
+        inner = np.setdiff1d(
+            np.arange(tm.points.size), np.r_[tm.wall0, tm.wall1, tm.coarse, tm.fine]
+        )
+        val = np.bincount(tm.quads.ravel(), minlength=tm.points.size)
+        v3 = inner[val[inner] == 3]
+        assert v3.size == 1
+        assert np.abs(_angles(tm.points, tm.quads)[np.isin(tm.quads, v3)] - 120.0).max() <= TOL
+        ok += 1
+    print(f"parity rows ({half}): {ok} meshed, {refused} refused")
+    assert ok >= 45, (ok, refused)
+
+
+@pytest.mark.parametrize(
+    ("length", "fine", "coarse", "grading"),
+    [(4.0, 41, 10, 1.0), (4.0, 40, 11, 1.0), (4.0, 61, 20, 1.5), (2.0, 7, 6, 1.0)],
+)
+def test_cascade_meets_an_odd_difference(length, fine, coarse, grading):
+    """A cascade whose two sides differ by an odd number of rows starts with a parity row:
+    exactly ``coarse`` rows reached, one wall one point longer, everything else as usual."""
+    corners = np.array([0, length, length + 1j, 1j])
+    p_fine = np.linspace(0.0, 1.0, fine + 1) ** grading
+    tm = transition_cascade(corners, p_fine, coarse, n_along=3)
+    _check_parity(tm, corners, p_fine)
+    assert tm.coarse.size == coarse + 1 and tm.fine.size == fine + 1

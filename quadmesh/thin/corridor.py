@@ -874,6 +874,7 @@ def _mesh_layout(
     max_size: float | None = None,
     sector_chords: int = 16,
     transitions: bool = False,
+    tilt: bool = False,
 ) -> CorridorMesh:
     """Refine a ladder layout of the polygon ``z`` (sectors built, rungs' points fixed by
     them and by ``extra_fixed``, runs refined and glued) into a :class:`CorridorMesh`: about
@@ -881,7 +882,9 @@ def _mesh_layout(
 
     ``transitions``: the sectors keep their own counts instead of taking those of the
     ``extra_fixed`` rungs, and a run joining a rung of ``extra_fixed`` to a sector with fewer
-    points changes its count by a transition cascade (:func:`_run_params`)."""
+    points changes its count by a transition cascade (:func:`_run_params`); ``tilt``: its
+    stages may even out rows only part of the way
+    (:func:`quadmesh.transition.transition_cascade`)."""
     rung_len = np.abs(lay.vertices[lay.rungs[:, 0]] - lay.vertices[lay.rungs[:, 1]])
     size = float(np.median(rung_len)) / max(int(across), 1)
     if max_size is not None:
@@ -960,7 +963,9 @@ def _mesh_layout(
         if k in fixed:
             raise ThinPartError("a sector of the corridor sits where it meets the rest")
         fixed[k] = par
-    pts, quads, cell, rung_ids = _refine_ladder(lay, size, fixed, set(tips.tolist()), transitions)
+    pts, quads, cell, rung_ids = _refine_ladder(
+        lay, size, fixed, set(tips.tolist()), transitions, tilt
+    )
     for k_s, (m, entries) in enumerate(built):
         gp, gamma_ids, allp, sq, _a, _s1, _s2 = m
         n_pts = gp.size
@@ -1222,6 +1227,7 @@ def _run_params(
     size: float,
     fixed: dict[int, np.ndarray],
     cascades: dict | None = None,
+    tilt: bool = False,
 ) -> list[np.ndarray]:
     """Parameters (0 … 1 from the L end to the R end) of the points on every rung.
 
@@ -1261,7 +1267,7 @@ def _run_params(
                     cell = _cell_between(lay, min(ra, rb))
                     try:
                         tm, p = _cascade_cell(
-                            lay, cell, ra, p, target, _cell_along(lay, cell, size), budget
+                            lay, cell, ra, p, target, _cell_along(lay, cell, size), budget, tilt
                         )
                     except TransitionError:
                         pass  # this cell stays a plain grid
@@ -1283,7 +1289,7 @@ def _run_params(
                 cell = _cell_between(lay, min(ra, rb))
                 try:
                     tm, p = _cascade_cell(
-                        lay, cell, ra, p, target, _cell_along(lay, cell, size), budget
+                        lay, cell, ra, p, target, _cell_along(lay, cell, size), budget, tilt
                     )
                 except TransitionError as exc:
                     raise ThinPartError(
@@ -1349,6 +1355,7 @@ def _cascade_cell(
     n_coarse: int,
     n_along: int,
     budget: list[int] | None = None,
+    tilt: bool = False,
 ):
     """As many transition stages as fit (:func:`quadmesh.transition.transition_cascade`) in
     the ladder cell ``cell``, from the ``p_fine`` points of rung ``fine_rung`` (parameters
@@ -1360,7 +1367,7 @@ def _cascade_cell(
     if fine_rung == k1:  # fine side u = 1: the cell as it is
         corners = V[[a, a2, b2, b]]
         tm = transition_cascade(
-            corners, p_fine, n_coarse - 1, partial=True, n_along=n_along, budget=budget
+            corners, p_fine, n_coarse - 1, partial=True, n_along=n_along, budget=budget, tilt=tilt
         )
         return tm, tm.p_coarse
     corners = V[[b2, b, a, a2]]  # turned by 180°: u and p reversed
@@ -1371,6 +1378,7 @@ def _cascade_cell(
         partial=True,
         n_along=n_along,
         budget=budget,
+        tilt=tilt,
     )
     return tm, 1.0 - tm.p_coarse[::-1]
 
@@ -1406,6 +1414,7 @@ def _refine_ladder(
     fixed: dict[int, np.ndarray],
     tips: set[int],
     transitions: bool = False,
+    tilt: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
     """Refine a ladder layout: every rung's points generated once (:func:`_run_params`) and
     shared by index by the cells on both sides; ladder cells are ruled grids between their
@@ -1415,7 +1424,7 @@ def _refine_ladder(
     (:func:`_run_params`)."""
     V = lay.vertices
     cascades: dict | None = {} if transitions else None
-    params = _run_params(lay, size, fixed, cascades)
+    params = _run_params(lay, size, fixed, cascades, tilt)
     pts: list[np.ndarray] = [V]
     count = V.size
 
@@ -1883,11 +1892,15 @@ def capped(part: np.ndarray) -> np.ndarray:
     return np.r_[part, A + d, B + d]
 
 
-def bridge_layout(part: np.ndarray) -> tuple[CorridorLayout, np.ndarray, np.ndarray | None] | None:
+def bridge_layout(
+    part: np.ndarray, min_rungs: int = 3
+) -> tuple[CorridorLayout, np.ndarray, np.ndarray | None] | None:
     """A ladder from the cut of ``part`` (a side of a :class:`BridgeCut`) into it, started from
     a virtual cap (:func:`capped`): the layout (its first rung the cut), the capped polygon, and
     the body where the ladder gets stuck (None when it reaches the far end: the part is a
-    corridor), or None when no ladder leaves the cut."""
+    corridor), or None when no ladder of at least ``min_rungs`` rungs leaves the cut (two: a
+    single cell, as across a straight stem, which only a cell cut along its length can give
+    room for its transitions)."""
     q = capped(np.asarray(part, dtype=np.complex128))
     m = q.size
     if not shapely.Polygon(np.column_stack([q.real, q.imag])).is_valid:
@@ -1901,7 +1914,7 @@ def bridge_layout(part: np.ndarray) -> tuple[CorridorLayout, np.ndarray, np.ndar
     except ThinPartError:
         return None
     cut0 = {int(lay.rungs[0][0]), int(lay.rungs[0][1])}
-    if not lay.kind or lay.kind[0] != "cap" or cut0 != {0, m - 3} or len(lay.rungs) < 3:
+    if not lay.kind or lay.kind[0] != "cap" or cut0 != {0, m - 3} or len(lay.rungs) < min_rungs:
         return None
     if not lay.open_end:
         return lay, q, None
@@ -2083,6 +2096,16 @@ def _mesh_fixed(
     try:
         cm = _mesh_layout(lay, z, across, fixed)
     except ThinPartError:
+        if cm_t is None:
+            # last, cascades whose stages may even out rows only part of the way (their
+            # outcome differs: so only where the others fail, and meshes that joined before
+            # are kept)
+            if start_points is None or body_points is None:
+                raise
+            try:
+                cm_t = _mesh_layout(lay, z, across, fixed, transitions=True, tilt=True)
+            except ThinPartError:
+                pass
         if cm_t is None:
             raise
         cm = cm_t
