@@ -160,6 +160,7 @@ def mesh_polygon(
                 sized = _sized_retry(options, exc)
                 if sized is None:
                     raise
+                _nesting.retry = True  # a chain (minutes on a river) is not tried again
                 try:
                     # with method="blocks" the layout search is not repeated: it failed
                     result = _run_stages(
@@ -169,6 +170,8 @@ def mesh_polygon(
                     raise
                 except QuadmeshError:
                     raise exc from None
+                finally:
+                    _nesting.retry = False
         failed = False
         return result
     finally:
@@ -219,6 +222,8 @@ def _run_stages(
     poly: Polygon = validate_polygon(polygon)
     nested = getattr(_nesting, "value", 0) > 0
     origin = _working_origin(poly, FAR_FROM_ORIGIN if nested else FAR_FROM_ORIGIN_TOP)
+    if nested and getattr(_nesting, "keep_frame", False):
+        origin = 0j  # a knot of a chain: meshed where it lies, verified there (_mesh_chain)
     work_poly = poly.translated(-origin) if origin else poly
     timings["validate"] = time.perf_counter() - t0
 
@@ -390,6 +395,15 @@ def _rescue(dec, options, exc, run, report, timings, runner, arm_first: bool, cr
                 armed = (*_mesh_thick_and_thin(moved, options, report, timings, runner), moved)
             except (ConformalMapError, DiskConstructionError):
                 armed = None
+    if (
+        armed is None
+        and crowded
+        and getattr(_nesting, "value", 0) == 0
+        and not getattr(_nesting, "retry", False)
+    ):
+        # last: ladders restarted past every place where one gets stuck (rivers, contours);
+        # not again in the retry with arcs chosen for size (a chain can take minutes)
+        armed = _mesh_chain(dec, options, stop, runner.executor)
     return armed
 
 
@@ -764,6 +778,144 @@ def _bridge_join(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body
     asm.add_quads(gl[arm.quads], source=3)
     thin = [*near_r.thin, ThinPartResult("corridor", len(near_r.thin), arm, gl)]
     return asm, list(near_r.pieces), thin, near_r.decomposition
+
+
+#: A chain (:func:`_mesh_chain`) has at most this many knots, and tries at most this many
+#: knots (restart places) whose mesh its ladder cannot join before meshing the rest as one part
+#: (a failing join costs 10–50 s on a river: 300 points on each cut) — only when the rest has
+#: at most ``CHAIN_REST_VERTICES`` vertices (a longer ragged rest is as crowded as the whole).
+CHAIN_MAX_KNOTS = 60
+CHAIN_JOINS = 4
+CHAIN_REST_VERTICES = 300
+
+
+def _mesh_chain(
+    dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
+):
+    """A corridor whose ladder gets stuck again and again (a river whose banks zigzag, a traced
+    contour with ragged stretches) as a *chain*: an arm from one tip up to where its ladder
+    gets stuck (:func:`~quadmesh.thin.corridor.arm_and_body`), then a *knot* — the stretch from
+    that rung to a straight crosscut a few widths on (:func:`~quadmesh.thin.corridor.
+    restart_cuts`), small enough for the paper's construction — and a ladder restarted from
+    that crosscut (a bridge's, from a virtual cap), and so on until a ladder reaches the far
+    tip or the rest meshes as one part. Every ladder takes its knots' points on its end rungs
+    by index, transition cascades (with a parity row for odd differences) changing the count
+    between them. Each knot takes the nearest restart from which a ladder leaves and whose
+    ladder behind joins the knot's mesh. Knots are meshed where they lie (not translated to
+    their own origin) and verified there. Returns (assembler, the first knot's thick-piece
+    results, thin-part results, its decomposition) or None."""
+    from .thin.corridor import (
+        RESTART_WIDTHS,
+        arm_and_body,
+        bridge_layout,
+        mesh_arm,
+        restart_cuts,
+        shorter_bridges,
+    )
+
+    split = arm_and_body(dec.polygon.z)
+    if split is None:
+        return None
+    lay, body = split
+
+    def join(lay, q, start_r: MeshResult | None, end_r: MeshResult | None):
+        v = lay.vertices
+        start = end = None
+        if start_r is not None:
+            start = _cut_ids(start_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+            if start is None:
+                return None
+        if end_r is not None:
+            end = _cut_ids(end_r.mesh.z, v[lay.rungs[-1][0]], v[lay.rungs[-1][1]])
+            if end is None:
+                return None
+        try:
+            arm = mesh_arm(
+                lay,
+                q,
+                None if end_r is None else end_r.mesh.z,
+                start_points=None if start_r is None else start_r.mesh.z,
+                split=(),  # long ladders: cells cut along their length add little, cost much
+            )
+        except ThinPartError:
+            return None
+        if (start is not None and start.size != arm.start.size) or (
+            end is not None and end.size != arm.cut.size
+        ):
+            return None
+        return arm, start, end
+
+    def part(w: np.ndarray) -> MeshResult | None:
+        keep = getattr(_nesting, "keep_frame", False)
+        _nesting.keep_frame = True
+        try:
+            return _mesh_part(w, options, cancel, executor)
+        finally:
+            _nesting.keep_frame = keep
+
+    q = dec.polygon.z
+    knots: list[MeshResult] = []
+    segments = []  # (corridor mesh, ids on its first rung, ids on its last rung, knot before)
+    for _ in range(CHAIN_MAX_KNOTS):
+        if cancel is not None and cancel():
+            raise Cancelled("cancelled")
+        step = None
+        tries = CHAIN_JOINS
+        for rc in restart_cuts(body, RESTART_WIDTHS):
+            nxt = bridge_layout(rc.rest, min_rungs=2)
+            if nxt is None:
+                continue
+            kr = part(rc.knot)
+            if kr is None:
+                continue
+            seg = join(lay, q, knots[-1] if knots else None, kr)
+            if seg is not None:
+                step = (kr, seg, nxt)
+                break
+            tries -= 1
+            if tries <= 0:
+                break
+        if step is None:
+            # no restart: the rest as one part, behind the ladder's last rung or one to three
+            # rungs before it (another count on the cut)
+            before = knots[-1] if knots else None
+            if body.size > CHAIN_REST_VERTICES:
+                return None
+            for lay_k, body_k in [(lay, body), *shorter_bridges(lay, q)]:
+                kr = part(body_k)
+                seg = None if kr is None else join(lay_k, q, before, kr)
+                if seg is not None:
+                    break
+            if seg is None:
+                return None
+            segments.append((*seg, len(knots) - 1))
+            knots.append(kr)
+            break
+        kr, seg, (lay, q, body) = step
+        segments.append((*seg, len(knots) - 1))
+        knots.append(kr)
+        if body is None:  # the ladder from the knot reaches the far tip
+            seg = join(lay, q, kr, None)
+            if seg is None:
+                return None
+            segments.append((*seg, len(knots) - 1))
+            break
+    else:
+        return None
+    asm = Assembler()
+    ids = [_add_mesh(asm, r) for r in knots]
+    thin = list(knots[0].thin)
+    for arm, start, end, before in segments:
+        gl = np.full(arm.vertices.size, -1, dtype=np.int64)
+        if start is not None:
+            gl[arm.start] = ids[before][start]
+        if end is not None:
+            gl[arm.cut] = ids[before + 1][end]
+        own = gl < 0
+        gl[own] = asm.add_vertices(arm.vertices[own])
+        asm.add_quads(gl[arm.quads], source=3)
+        thin.append(ThinPartResult("corridor", len(thin), arm, gl))
+    return asm, list(knots[0].pieces), thin, knots[0].decomposition
 
 
 def _mesh_arm_and_body(

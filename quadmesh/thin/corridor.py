@@ -1807,7 +1807,6 @@ def bridge_cuts(z: np.ndarray, margin: float = CELL_MARGIN) -> list[BridgeCut]:
     straight across to the far wall; kept when the segment lies inside the polygon and meets
     both walls at angles in [60° + margin, 120° − margin] on either side."""
     z = np.asarray(z, dtype=np.complex128)
-    n = z.size
     tri, g, _apex, _ear = _dual_tree(z)
     d0 = dijkstra(g, indices=0)
     t1 = int(np.argmax(d0))
@@ -1820,50 +1819,139 @@ def bridge_cuts(z: np.ndarray, margin: float = CELL_MARGIN) -> list[BridgeCut]:
     if arc[-1] <= 0:
         return []
     poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
-    bnd = poly.exterior
-    e = np.roll(z, -1) - z
-    diam = float(np.ptp(z.real) + np.ptp(z.imag))
     lo, hi = 60.0 + margin, 120.0 - margin
     out: list[BridgeCut] = []
     for f in BRIDGE_PLACES:
         p = complex(np.interp(f * arc[-1], arc, cen.real), np.interp(f * arc[-1], arc, cen.imag))
-        q = shapely.get_coordinates(shapely.shortest_line(shapely.Point(p.real, p.imag), bnd))
-        a = complex(q[1, 0], q[1, 1])
-        if abs(p - a) <= 1e-12 * diam:
-            continue
-        u = (p - a) / abs(p - a)
-        far = a + 2.0 * diam * u
+        c = _cut_through(z, p, poly, lo, hi)
+        if c is not None:
+            out.append(c)
+    return out
+
+
+def _cut_through(
+    z: np.ndarray, p: complex, poly, lo: float, hi: float, u: complex | None = None
+) -> BridgeCut | None:
+    """The straight crosscut of the polygon ``z`` (``poly``: its shapely polygon) through the
+    point ``p`` inside it: from the nearest boundary point straight through ``p`` to the far
+    wall, or, given a unit direction ``u``, the chord through ``p`` along it. None unless it
+    lies inside the polygon, meets both walls at angles in [lo, hi] on either side, joins two
+    different edges and keeps clear of their ends."""
+    n = z.size
+    bnd = poly.exterior
+    e = np.roll(z, -1) - z
+    diam = float(np.ptp(z.real) + np.ptp(z.imag))
+
+    def first_hit(a: complex, d: complex) -> complex | None:
+        far = a + 2.0 * diam * d
         hit = shapely.get_coordinates(
             shapely.intersection(shapely.LineString([(a.real, a.imag), (far.real, far.imag)]), bnd)
         )
         w = hit[:, 0] + 1j * hit[:, 1]
-        t = ((w - a) / u).real
+        t = ((w - a) / d).real
         w, t = w[t > 1e-9 * diam], t[t > 1e-9 * diam]
-        if w.size == 0:
+        return None if w.size == 0 else complex(w[np.argmin(t)])
+
+    if u is None:
+        q = shapely.get_coordinates(shapely.shortest_line(shapely.Point(p.real, p.imag), bnd))
+        a = complex(q[1, 0], q[1, 1])
+        if abs(p - a) <= 1e-12 * diam:
+            return None
+        got = first_hit(a, (p - a) / abs(p - a))
+    else:
+        a = first_hit(p, -u)
+        got = None if a is None else first_hit(p, u)
+    if got is None or a is None:
+        return None
+    b = got
+    # the edges holding a and b (the nearest, by distance to the segment)
+    te = np.clip((((np.array([a, b])[:, None] - z[None, :]) / e[None, :]).real), 0.0, 1.0)
+    dist = np.abs(z[None, :] + te * e[None, :] - np.array([a, b])[:, None])
+    ia, ib = (int(k) for k in np.argmin(dist, axis=1))
+    if ia == ib:
+        return None
+    ang = np.degrees(np.angle(np.array([e[ia] / (b - a), e[ib] / (a - b)]))) % 180.0
+    if not np.all((ang >= lo) & (ang <= hi)):
+        return None
+    eps = 1e-9 * (b - a)
+    seg = shapely.LineString([((a + eps).real, (a + eps).imag), ((b - eps).real, (b - eps).imag)])
+    if not poly.contains_properly(seg):
+        return None
+    if min(abs(a - z[ia]), abs(a - z[(ia + 1) % n]), abs(b - z[ib]), abs(b - z[(ib + 1) % n])) < (
+        1e-6 * abs(b - a)
+    ):
+        return None  # a cut through a vertex: left to other places
+    first = np.array([a, *_walk(z, ia, ib), b])
+    second = np.array([b, *_walk(z, ib, ia), a])
+    return BridgeCut(a, b, ia, ib, first, second)
+
+
+#: Where a chain of ladders restarts after a ladder got stuck (:func:`restart_cuts`): distances
+#: beyond the stuck rung along the corridor, in widths of that rung.
+RESTART_WIDTHS = tuple(np.arange(1.0, 16.0, 0.25).tolist())
+
+
+@dataclass(frozen=True)
+class RestartCut:
+    """A crosscut a few widths beyond the cut a ladder stopped at (:func:`restart_cuts`):
+    ``knot`` the polygon between the two cuts (both cuts among its edges, the restart cut
+    last), ``rest`` the polygon beyond (the restart cut its last edge), both
+    counter-clockwise; ``distance`` along the corridor from the stopping cut."""
+
+    distance: float
+    cut: BridgeCut
+    knot: np.ndarray
+    rest: np.ndarray
+
+
+def restart_cuts(
+    z: np.ndarray, distances: np.ndarray | tuple[float, ...], margin: float = CELL_MARGIN
+) -> list[RestartCut]:
+    """Crosscuts of the polygon ``z`` — a ladder's body, whose last edge ``z[-1] -> z[0]`` is
+    the rung the ladder stopped at — across the corridor beyond that rung, at the given
+    ``distances`` along the path through the dual tree of a constrained Delaunay triangulation
+    from the rung's triangle to the farthest one, each perpendicular to the path there (its
+    direction over ±1 width, the rung's length). Kept as :func:`bridge_cuts` keeps its cuts,
+    and when neither end lies on the rung itself. A ladder that gets stuck on a ragged stretch
+    (a zigzag bank, a notch) restarts from such a cut: the knot between the two cuts is small
+    enough for the paper's construction (:func:`quadmesh.pipeline._mesh_chain`)."""
+    z = np.asarray(z, dtype=np.complex128)
+    n = z.size
+    tri, g, _apex, _ear = _dual_tree(z)
+    src = np.flatnonzero(np.isin(tri, [0, n - 1]).sum(axis=1) == 2)
+    if src.size == 0:
+        return []
+    d, pred = dijkstra(g, indices=int(src[0]), return_predecessors=True)
+    far = int(np.argmax(np.where(np.isfinite(d), d, -1.0)))
+    path = [far]
+    while path[-1] != int(src[0]) and pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    cen = np.r_[0.5 * (z[0] + z[-1]), z[tri].mean(axis=1)[path[::-1]]]
+    arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
+    width = abs(z[0] - z[-1])
+    poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
+    lo, hi = 60.0 + margin, 120.0 - margin
+
+    def at(s: float) -> complex:
+        return complex(np.interp(s, arc, cen.real), np.interp(s, arc, cen.imag))
+
+    out: list[RestartCut] = []
+    for dist in distances:
+        s_ = float(dist) * width
+        if s_ >= arc[-1] - width:
+            break
+        tangent = at(s_ + width) - at(max(0.0, s_ - width))
+        if abs(tangent) == 0.0:
             continue
-        b = complex(w[np.argmin(t)])
-        # the edges holding a and b (the nearest, by distance to the segment)
-        te = np.clip((((np.array([a, b])[:, None] - z[None, :]) / e[None, :]).real), 0.0, 1.0)
-        dist = np.abs(z[None, :] + te * e[None, :] - np.array([a, b])[:, None])
-        ia, ib = (int(k) for k in np.argmin(dist, axis=1))
-        if ia == ib:
+        c = _cut_through(z, at(s_), poly, lo, hi, 1j * tangent / abs(tangent))
+        if c is None or n - 1 in (c.ia, c.ib):
             continue
-        ang = np.degrees(np.angle(np.array([e[ia] / (b - a), e[ib] / (a - b)]))) % 180.0
-        if not np.all((ang >= lo) & (ang <= hi)):
-            continue
-        eps = 1e-9 * (b - a)
-        seg = shapely.LineString(
-            [((a + eps).real, (a + eps).imag), ((b - eps).real, (b - eps).imag)]
-        )
-        if not poly.contains_properly(seg):
-            continue
-        if min(
-            abs(a - z[ia]), abs(a - z[(ia + 1) % n]), abs(b - z[ib]), abs(b - z[(ib + 1) % n])
-        ) < (1e-6 * abs(b - a)):
-            continue  # a cut through a vertex: left to other places
-        first = np.array([a, *_walk(z, ia, ib), b])
-        second = np.array([b, *_walk(z, ib, ia), a])
-        out.append(BridgeCut(a, b, ia, ib, first, second))
+        first = [(c.ia + 1 + k) % n for k in range((c.ib - c.ia) % n)]
+        knot_first = 0 in first and n - 1 in first
+        if not knot_first and (0 in first or n - 1 in first):
+            continue  # the cut separates the rung's two ends
+        knot, rest = (c.first, c.second) if knot_first else (c.second, c.first)
+        out.append(RestartCut(float(dist), c, knot, rest))
     return out
 
 
@@ -1908,7 +1996,16 @@ def bridge_layout(
     tips = arm_tips(q, q[m - 2], count=2)
     far = next((e for s, e in tips if s in (m - 2, m - 1)), None)
     if far is None:
-        return None
+        # the cap is no ear of the triangulation (a ragged wall beside the cut reaches its far
+        # corners): the end farthest along the dual tree from the cap's own triangle
+        tri, g, apex, _ear = _dual_tree(q)
+        src = np.flatnonzero(np.isin(tri, [m - 2, m - 1]).sum(axis=1) == 2)
+        if src.size == 0:
+            return None
+        d = dijkstra(g, indices=int(src[0]))
+        far = int(apex[int(np.argmax(np.where(np.isfinite(d), d, -1.0)))])
+        if far in (m - 2, m - 1):
+            return None
     try:
         lay = ladder_layout(q, (m - 2, far), partial=True, tip_reach=False)
     except ThinPartError:
@@ -2023,6 +2120,7 @@ def mesh_arm(
     *,
     across: int = 4,
     start_points: np.ndarray | None = None,
+    split: tuple[int, ...] | None = None,
 ) -> CorridorMesh:
     """Mesh an arm (:func:`arm_and_body`) whose last rung carries the body mesh's points on
     the cut (``body_points``: every body mesh vertex; those on the cut are found by position),
@@ -2032,7 +2130,8 @@ def mesh_arm(
     A bridge (:func:`bridge_cuts`) starts at a virtual cap cell beyond its first rung: given
     ``start_points`` (the mesh of the part before it), that rung carries their points on it and
     the cap cell's quads are dropped. ``body_points`` None: the ladder reaches the far tip (no
-    body after it)."""
+    body after it). ``split``: how many cells a bridge's ladder cells are cut into along their
+    length when its whole cells do not join (default :data:`SPLIT_PARTS`; () for none)."""
     if start_points is not None and (
         not lay.kind or lay.kind[0] != "cap" or (body_points is not None and len(lay.rungs) < 2)
     ):
@@ -2047,7 +2146,7 @@ def mesh_arm(
         # its ladder cells cut into 2, then 4 along their length (bilinear sub-cells: their
         # corners stay in [60°, 120°]) give them room — only when the whole cells fail, so
         # that every bridge that joined before keeps its mesh
-        for parts in SPLIT_PARTS:
+        for parts in SPLIT_PARTS if split is None else split:
             try:
                 cm = _mesh_fixed(
                     split_ladder_cells(lay, z, parts), z, across, body_points, start_points
