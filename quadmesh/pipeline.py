@@ -835,7 +835,7 @@ def _mesh_chain(
                 q,
                 None if end_r is None else end_r.mesh.z,
                 start_points=None if start_r is None else start_r.mesh.z,
-                split=(),  # long ladders: cells cut along their length add little, cost much
+                split=(2,),  # in two only: each cut costs another 10–50 s on a river
             )
         except ThinPartError:
             return None

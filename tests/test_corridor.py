@@ -386,6 +386,17 @@ def test_a_bridge_whose_single_cell_run_cannot_join_its_meshes_is_cut_along_its_
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
+def _c_with_blobs() -> np.ndarray:
+    """A C-shaped stroke (width 0.8, radius 4) with a round blob at each end."""
+    t = np.linspace(0.15, 0.85, 60) * 2 * np.pi
+    centre = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
+    g = shapely.LineString(centre).buffer(0.4, cap_style="flat", join_style="round")
+    for p in (centre[0], centre[-1]):
+        g = g.union(shapely.Point(p).buffer(1.0, quad_segs=8))
+    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-4), 1.0)
+    return validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+
+
 def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut():
     """A C-shaped stroke with a round blob at each end: the cuts cross the stroke inside it at
     angles in [60°, 120°] (with the cells' margin) on both walls; the two sides tile the
@@ -394,13 +405,7 @@ def test_bridge_cuts_split_a_corridor_in_its_middle_and_a_ladder_leaves_the_cut(
     given up)."""
     from quadmesh.thin.corridor import bridge_cuts, bridge_layout, shorter_bridges
 
-    t = np.linspace(0.15, 0.85, 60) * 2 * np.pi
-    centre = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
-    g = shapely.LineString(centre).buffer(0.4, cap_style="flat", join_style="round")
-    for p in (centre[0], centre[-1]):
-        g = g.union(shapely.Point(p).buffer(1.0, quad_segs=8))
-    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-4), 1.0)
-    z = validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+    z = _c_with_blobs()
     cuts = bridge_cuts(z)
     assert cuts
     area = shapely.Polygon(np.column_stack([z.real, z.imag])).area
@@ -493,13 +498,7 @@ def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
     conformity, and both rungs carrying exactly the given points."""
     from quadmesh.thin.corridor import bridge_cuts, bridge_layout, mesh_arm
 
-    t = np.linspace(0.15, 0.85, 60) * 2 * np.pi
-    centre = np.column_stack([4 * np.cos(t), 4 * np.sin(t)])
-    g = shapely.LineString(centre).buffer(0.4, cap_style="flat", join_style="round")
-    for p in (centre[0], centre[-1]):
-        g = g.union(shapely.Point(p).buffer(1.0, quad_segs=8))
-    g = shapely.geometry.polygon.orient(shapely.simplify(g, 1e-4), 1.0)
-    z = validate_polygon(np.asarray(g.exterior.coords)[:-1], drop_collinear=True).z
+    z = _c_with_blobs()
     c = bridge_cuts(z)[0]
     lay, q, body = bridge_layout(c.second) or bridge_layout(c.first)
     assert body is not None

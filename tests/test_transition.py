@@ -122,6 +122,18 @@ def test_pairs_are_planned_apart_and_off_the_sides():
         pair_rows(np.ones(7), 2)
 
 
+def _random_cell(rng: np.random.Generator, lo: float, hi: float) -> np.ndarray:
+    """A random convex cell of unit width and length in [lo, hi], corners jittered by up to a
+    quarter, every corner in [61°, 119°]."""
+    while True:
+        length = rng.uniform(lo, hi)
+        corners = np.array([0, length, length + 1j, 1j]) + (
+            rng.uniform(-0.25, 0.25, 4) + 1j * rng.uniform(-0.25, 0.25, 4)
+        )
+        if cell_is_admissible(corners, 1.0):
+            return corners
+
+
 def test_random_convex_cells_sweep():
     """Random convex cells (corners in [61°, 119°]), 8–80 fine rows with any spacing, 1–6
     pairs: each either meshes with every angle in range or refuses with TransitionError; a
@@ -129,12 +141,7 @@ def test_random_convex_cells_sweep():
     rng = np.random.default_rng(7)
     ok = refused = 0
     while ok + refused < 60:
-        length = rng.uniform(0.8, 8.0)
-        corners = np.array([0, length, length + 1j, 1j]) + (
-            rng.uniform(-0.25, 0.25, 4) + 1j * rng.uniform(-0.25, 0.25, 4)
-        )
-        if not cell_is_admissible(corners, 1.0):
-            continue
+        corners = _random_cell(rng, 0.8, 8.0)
         kf = int(rng.integers(8, 80))
         if rng.random() < 0.3:
             inner = np.sort(rng.uniform(0, 1, kf - 1))
@@ -212,12 +219,7 @@ def test_parity_row_in_random_convex_cells(half):
     rng = np.random.default_rng(11 if half == "low" else 12)
     ok = refused = 0
     while ok + refused < 60:
-        length = rng.uniform(0.5, 6.0)
-        corners = np.array([0, length, length + 1j, 1j]) + (
-            rng.uniform(-0.25, 0.25, 4) + 1j * rng.uniform(-0.25, 0.25, 4)
-        )
-        if not cell_is_admissible(corners, 1.0):
-            continue
+        corners = _random_cell(rng, 0.5, 6.0)
         kf = int(rng.integers(3, 60))
         p_fine = np.linspace(0, 1, kf + 1)
         if rng.random() < 0.5:
