@@ -1918,15 +1918,10 @@ def restart_cuts(
     z = np.asarray(z, dtype=np.complex128)
     n = z.size
     tri, g, _apex, _ear = _dual_tree(z)
-    src = np.flatnonzero(np.isin(tri, [0, n - 1]).sum(axis=1) == 2)
-    if src.size == 0:
+    path = _path_from_edge(tri, g, n - 1, 0)
+    if path is None:
         return []
-    d, pred = dijkstra(g, indices=int(src[0]), return_predecessors=True)
-    far = int(np.argmax(np.where(np.isfinite(d), d, -1.0)))
-    path = [far]
-    while path[-1] != int(src[0]) and pred[path[-1]] >= 0:
-        path.append(int(pred[path[-1]]))
-    cen = np.r_[0.5 * (z[0] + z[-1]), z[tri].mean(axis=1)[path[::-1]]]
+    cen = np.r_[0.5 * (z[0] + z[-1]), z[tri].mean(axis=1)[path]]
     arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
     width = abs(z[0] - z[-1])
     poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
@@ -1953,6 +1948,20 @@ def restart_cuts(
         knot, rest = (c.first, c.second) if knot_first else (c.second, c.first)
         out.append(RestartCut(float(dist), c, knot, rest))
     return out
+
+
+def _path_from_edge(tri: np.ndarray, g, i: int, j: int) -> list[int] | None:
+    """The path through the dual tree (:func:`_dual_tree`: triangles ``tri``, tree ``g``)
+    from the triangle on the polygon edge between vertices ``i`` and ``j`` to the triangle
+    farthest from it, as triangle indices; None when no triangle holds that edge."""
+    src = np.flatnonzero(np.isin(tri, [i, j]).sum(axis=1) == 2)
+    if src.size == 0:
+        return None
+    d, pred = dijkstra(g, indices=int(src[0]), return_predecessors=True)
+    path = [int(np.argmax(np.where(np.isfinite(d), d, -1.0)))]
+    while path[-1] != int(src[0]) and pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    return path[::-1]
 
 
 def _walk(z: np.ndarray, i0: int, i1: int) -> list[complex]:
@@ -1999,12 +2008,9 @@ def bridge_layout(
         # the cap is no ear of the triangulation (a ragged wall beside the cut reaches its far
         # corners): the end farthest along the dual tree from the cap's own triangle
         tri, g, apex, _ear = _dual_tree(q)
-        src = np.flatnonzero(np.isin(tri, [m - 2, m - 1]).sum(axis=1) == 2)
-        if src.size == 0:
-            return None
-        d = dijkstra(g, indices=int(src[0]))
-        far = int(apex[int(np.argmax(np.where(np.isfinite(d), d, -1.0)))])
-        if far in (m - 2, m - 1):
+        path = _path_from_edge(tri, g, m - 2, m - 1)
+        far = None if path is None else int(apex[path[-1]])
+        if far is None or far in (m - 2, m - 1):
             return None
     try:
         lay = ladder_layout(q, (m - 2, far), partial=True, tip_reach=False)
