@@ -858,7 +858,7 @@ def _mesh_chain(
     segments = []  # (corridor mesh, ids on its first rung, ids on its last rung, knot before)
     for _ in range(CHAIN_MAX_KNOTS):
         if cancel is not None and cancel():
-            raise Cancelled("cancelled")
+            raise Cancelled("meshing cancelled during a chain of ladders")
         step = None
         tries = CHAIN_JOINS
         for rc in restart_cuts(body, RESTART_WIDTHS):
