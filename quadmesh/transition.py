@@ -777,13 +777,17 @@ def transition_cascade(
                 continue
             lo = u_hi - du
             sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
-            try:
-                tm_par = transition_mesh(
-                    sub, q, [], p_coarse=_even_out(pc), polish=budget, half=half
-                )
-            except TransitionError:
-                continue
-            break
+            # the coarse rows evened out, else as they are: the stage is a few of the wall
+            # row's gaps long, and evening rows that vary by a factor of 3 between
+            # neighbours (a mesh's points on a cut) in so short a slice folds it
+            for pe in (_even_out(pc), pc):
+                try:
+                    tm_par = transition_mesh(sub, q, [], p_coarse=pe, polish=budget, half=half)
+                except TransitionError:
+                    continue
+                break
+            if tm_par is not None:
+                break
         if tm_par is None:
             if not partial:
                 raise TransitionError(
@@ -818,7 +822,7 @@ def transition_cascade(
         sub = _ruled(cn, np.array([lo, u_hi, u_hi, lo]), np.array([0.0, 0.0, 1.0, 1.0]))
         tm = None
         evened = _even_out(pc)
-        for pe in (evened, _tilted(pc, evened, sub)) if tilt else (evened,):
+        for pe in (evened, _tilted(pc, evened, sub), pc) if tilt else (evened,):
             try:
                 tm = transition_mesh(sub, q, pairs, p_coarse=pe, polish=budget)
             except TransitionError:

@@ -487,6 +487,21 @@ def test_with_blocks_and_no_layout_the_arms_body_is_meshed_by_the_papers_constru
     assert np.array_equal(r.mesh.vertices, ref.mesh.vertices)
 
 
+def _check_part_mesh(v: np.ndarray, quads: np.ndarray, q: np.ndarray) -> None:
+    """Convex counter-clockwise quads, every angle away from the corners of the part ``q`` in
+    [60°, 120°] (plain float64, relative to each quad's first vertex), no edge in more than
+    two quads."""
+    p = v[quads] - v[quads][:, :1]
+    e = np.roll(p, -1, axis=1) - p
+    assert np.all((np.conj(e) * np.roll(e, -1, axis=1)).imag > 0)
+    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e))) % 360.0
+    corner = np.isin(v[quads], q)
+    assert ang[~corner].min() >= 60 - 1e-9 and ang[~corner].max() <= 120 + 1e-9
+    he = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+    _, cnt = np.unique(he, axis=0, return_counts=True)
+    assert cnt.max() == 2
+
+
 @pytest.mark.parametrize(("n_start", "n_end"), [(41, 28), (28, 41), (33, 32)])
 def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
     """A bridge between two meshes whose cuts carry counts differing by an odd number (a quad
@@ -513,15 +528,33 @@ def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
     v, quads = cm.vertices, cm.quads
     assert np.allclose(np.sort_complex(v[cm.start]), np.sort_complex(start), atol=1e-12)
     assert np.allclose(np.sort_complex(v[cm.cut]), np.sort_complex(end), atol=1e-12)
-    p = v[quads] - v[quads][:, :1]
-    e = np.roll(p, -1, axis=1) - p
-    assert np.all((np.conj(e) * np.roll(e, -1, axis=1)).imag > 0)
-    ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e))) % 360.0
-    corner = np.isin(v[quads], q)
-    assert ang[~corner].min() >= 60 - 1e-9 and ang[~corner].max() <= 120 + 1e-9
-    he = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
-    _, cnt = np.unique(he, axis=0, return_counts=True)
-    assert cnt.max() == 2
+    _check_part_mesh(v, quads, q)
+
+
+def test_a_bridge_joins_irregular_points_of_odd_difference():
+    """The cuts' points as a mesh leaves them: graded towards both walls and jumping by up to
+    6× between neighbours, 61 on one rung and 60 on the other. The parity row sits at a wall,
+    a few of the wall row's gaps long; it is built beside the rows as they are when evening
+    them out within so short a slice would fold it. Checked from outside as above."""
+    from quadmesh.thin.corridor import bridge_cuts, bridge_layout, mesh_arm
+
+    z = _c_with_blobs()
+    c = bridge_cuts(z)[0]
+    lay, q, _body = bridge_layout(c.second) or bridge_layout(c.first)
+    rng = np.random.default_rng(0)
+
+    def on_rung(k: int, n: int) -> np.ndarray:
+        a, b = lay.vertices[lay.rungs[k]]
+        i = np.arange(n - 1)
+        h = (1.0 + np.minimum(i, n - 2 - i) / 5.0) * rng.uniform(1.0, 6.0, n - 1)
+        return a + np.r_[0.0, np.cumsum(h)[:-1] / h.sum(), 1.0] * (b - a)
+
+    start, end = on_rung(0, 61), on_rung(len(lay.rungs) - 1, 60)
+    cm = mesh_arm(lay, q, end, start_points=start)
+    v, quads = cm.vertices, cm.quads
+    assert np.allclose(np.sort_complex(v[cm.start]), np.sort_complex(start), atol=1e-12)
+    assert np.allclose(np.sort_complex(v[cm.cut]), np.sort_complex(end), atol=1e-12)
+    _check_part_mesh(v, quads, q)
 
 
 def test_restart_cuts_cross_the_corridor_beyond_the_rung_a_ladder_stopped_at():
@@ -578,3 +611,43 @@ def test_a_chain_restarts_the_ladder_past_where_it_gets_stuck():
     z = asm.vertices()
     lo, hi = independent_check(poly.vertices, np.column_stack([z.real, z.imag]), quads, 1e-5)
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
+def test_a_morph_between_two_rungs_tilts_rows_where_the_cells_have_room():
+    """A run of ladder cells between two rungs whose points are fixed (same count, different
+    spacing) moves its rows from one spacing to the other along the run. Two of its cells
+    have corners of 61° and 119° (a slanted rung), the others are rectangles: spread evenly
+    by length the change tilts the slanted cells' rows out of [60°, 120°]; spread by what
+    each cell can take (its length times the tangent of its corners' distance from 60° and
+    120°) every angle stays in range."""
+    from quadmesh.thin.corridor import CorridorLayout, _run_params
+
+    slant = 1.0 / np.tan(np.radians(61.0))
+    xs_lo = np.array([0.0, 1.0, 2.0, 3.0, 5.0, 6.0, 7.0])
+    xs_hi = xs_lo + np.where(np.arange(7) == 3, slant, 0.0)
+    V = np.r_[xs_lo, xs_hi + 1j].astype(np.complex128)
+    nr = xs_lo.size
+    rungs = np.stack([np.arange(nr), nr + np.arange(nr)], axis=1)
+    cells = np.stack([rungs[:-1, 0], rungs[1:, 0], rungs[1:, 1], rungs[:-1, 1]], axis=1)
+    lay = CorridorLayout(
+        vertices=V,
+        cells=cells,
+        kind=("ladder",) * (nr - 1),
+        rungs=rungs,
+        tips=(0, nr - 1),
+        edge_of=np.full(V.size, -1),
+        cell_rungs=np.stack([np.arange(nr - 1), np.arange(1, nr)], axis=1),
+    )
+    fixed = {0: np.linspace(0.0, 1.0, 21), nr - 1: np.linspace(0.0, 1.0, 21) ** 0.6}
+
+    def angles(params: list[np.ndarray]) -> np.ndarray:
+        pts = np.stack([V[a] + p * (V[b] - V[a]) for (a, b), p in zip(rungs, params)])
+        q = np.stack([pts[:-1, :-1], pts[1:, :-1], pts[1:, 1:], pts[:-1, 1:]], axis=-1)
+        e = np.roll(q, -1, axis=-1) - q
+        return np.degrees(np.angle(-np.roll(e, 1, axis=-1) * np.conj(e))) % 360.0
+
+    by_length = angles(_run_params(lay, 0.05, dict(fixed)))
+    assert by_length.min() < 60.0 - 0.1 or by_length.max() > 120.0 + 0.1
+    by_room = angles(_run_params(lay, 0.05, dict(fixed), tilt=True))
+    assert by_room.min() >= 60.0 - 1e-9 and by_room.max() <= 120.0 + 1e-9
+    assert np.all(by_room[[0, 1, 4, 5]].max(axis=(1, 2)) < 110.0)  # the rectangles carry it

@@ -256,3 +256,20 @@ def test_cascade_meets_an_odd_difference(length, fine, coarse, grading):
     tm = transition_cascade(corners, p_fine, coarse, n_along=3)
     _check_parity(tm, corners, p_fine)
     assert tm.coarse.size == coarse + 1 and tm.fine.size == fine + 1
+
+
+def test_parity_row_beside_irregular_rows_in_a_short_cell():
+    """Points a mesh leaves on a cut: 200 rows graded towards both walls (10 times thinner
+    there than in the middle) whose heights jump by up to 3× between neighbours, in a cell
+    only 0.02–0.08 of its width long. The parity row at a wall is a few of that wall row's
+    gaps long; evening out all the other rows within so short a slice folded it, so the row
+    is built beside the rows as they are: one row fewer, every angle in range."""
+    rng = np.random.default_rng(1)
+    i = np.arange(200)
+    h = (1.0 + np.minimum(i, 199 - i) / 10.0) * rng.uniform(1.0, 3.0, 200)
+    p_fine = np.r_[0.0, np.cumsum(h)[:-1] / h.sum(), 1.0]
+    for length in (0.02, 0.04, 0.08):
+        corners = np.array([0, length, length + 1j, 1j])
+        tm = transition_cascade(corners, p_fine, 199, partial=True)
+        _check_parity(tm, corners, p_fine)
+        assert tm.coarse.size == 200

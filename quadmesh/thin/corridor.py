@@ -1307,8 +1307,7 @@ def _run_params(
                     f"{target} points across (it reached {p.size})"
                 )
             sub = path[j:]
-            arc = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(mid[sub])))])
-            w = arc / arc[-1]
+            w = _morph_weights(lay, sub, mid, tilt)
             for r, x in zip(sub, w):
                 params[r] = (1.0 - x) * p + x * fixed[lo]
             continue
@@ -1322,13 +1321,40 @@ def _run_params(
             for r in run:
                 params[r] = p0
             continue
-        arc = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(mid[run])))])
-        w = arc / arc[-1]
+        w = _morph_weights(lay, run, mid, tilt)
         if ends[0] != run[0]:
             p0, p1 = p1, p0
         for r, x in zip(run, w):
             params[r] = (1.0 - x) * p0 + x * p1
     return params
+
+
+def _morph_weights(
+    lay: CorridorLayout, path: np.ndarray, mid: np.ndarray, by_slack: bool = False
+) -> np.ndarray:
+    """How far along a morph (0 at ``path[0]``, 1 at its last rung) each rung of ``path`` is:
+    by arc length along the rungs' midpoints, or with ``by_slack`` in proportion to what each
+    ladder cell can take: its length times the tangent of the least distance of its corners
+    from 60° and 120°. A morph tilts every row line of a cell by about the share of the change
+    it carries; in a cell with a corner at 60.5° even a 1° tilt leaves the range, while a
+    rectangle takes 30°. Arc length where no cell has room."""
+    step = np.abs(np.diff(mid[path]))
+    if by_slack and path.size >= 2:
+        V = lay.vertices
+        room = np.empty(step.size)
+        for i in range(step.size):
+            cell = _cell_between(lay, int(min(path[i], path[i + 1])))
+            k0, k1 = (int(x) for x in lay.cell_rungs[cell])
+            (a, b), (a2, b2) = lay.rungs[k0], lay.rungs[k1]
+            ang = np.degrees(interior_angles(V[[a, a2, b2, b]]))
+            if ang.sum() > 720.0:  # listed clockwise
+                ang = 360.0 - ang
+            slack = float(np.min(np.minimum(ang - 60.0, 120.0 - ang)))
+            room[i] = np.tan(np.radians(min(max(slack, 0.0), 30.0)))
+        if (room > 0).any():
+            step = step * room
+    arc = np.concatenate([[0.0], np.cumsum(step)])
+    return arc / arc[-1] if arc[-1] > 0 else np.linspace(0.0, 1.0, arc.size)
 
 
 def _cell_between(lay: CorridorLayout, r: int) -> int:
