@@ -1409,6 +1409,13 @@ def _cascade_cell(
     return tm, 1.0 - tm.p_coarse[::-1]
 
 
+#: Tolerance (degrees) of a corridor mesh's own angle check: a tenth of the final strict check's
+#: (:data:`quadmesh.mesh.ANGLE_TOL_DEG`), room for the rounding of a translation. Rows a
+#: neighbouring mesh leaves 1e-9 apart on a cut carry exact 120° corners that float64 reads
+#: up to 3e-7° off at coordinates around 0.4.
+LADDER_ANGLE_TOL = 1e-6
+
+
 def _check_ladder_angles(pts: np.ndarray, quads: np.ndarray, z: np.ndarray) -> None:
     """Raise ThinPartError if a corridor quad is not convex and counter-clockwise with every
     new angle in [60°, 120°] (morphed runs are ruled, not bilinear, grids: checked here)."""
@@ -1417,7 +1424,8 @@ def _check_ladder_angles(pts: np.ndarray, quads: np.ndarray, z: np.ndarray) -> N
     ang = np.degrees(np.angle(-np.roll(e, 1, axis=1) * np.conj(e)))
     ang = np.where(ang < 0, ang + 360.0, ang)
     corner = np.isin(pts[quads], z)
-    bad = ~corner & ((ang < 60.0 - 1e-7) | (ang > 120.0 + 1e-7))
+    tol = LADDER_ANGLE_TOL
+    bad = ~corner & ((ang < 60.0 - tol) | (ang > 120.0 + tol))
     if bad.any():
         q = int(np.flatnonzero(bad.any(axis=1))[0])
         p = pts[quads[q, 0]]
@@ -2228,10 +2236,11 @@ def _mesh_fixed(
         cm = _mesh_layout(lay, z, across, fixed)
     except ThinPartError:
         if cm_t is None:
-            # last, cascades whose stages may even out rows only part of the way (their
-            # outcome differs: so only where the others fail, and meshes that joined before
-            # are kept)
-            if start_points is None or body_points is None:
+            # last, cascades whose stages may even out rows only part of the way and runs
+            # that morph where their cells have room (their outcome differs: so only where
+            # the others fail, and meshes that joined before are kept); also for an arm from
+            # a tip, whose round end fixes its first rung
+            if body_points is None:
                 raise
             try:
                 cm_t = _mesh_layout(lay, z, across, fixed, transitions=True, tilt=True)
