@@ -47,8 +47,8 @@ from .parallel import (
     disk_task,
     prepare_task,
 )
-from .polygon import Polygon, validate_polygon
-from .progress import Run, running
+from .polygon import Polygon, signed_area, validate_polygon
+from .progress import Run, active, checkpoint, running
 from .result import MeshOptions, MeshResult, ThinPartResult
 from .thick import KeptStages, PieceWork, collect_angle_faults
 from .thin.corridor import whole_corridor
@@ -789,6 +789,10 @@ CHAIN_JOINS = 4
 CHAIN_REST_VERTICES = 300
 
 
+#: Where the progress bar stands when a chain of ladders ends (it starts where the bar was).
+CHAIN_PROGRESS_END = 0.88
+
+
 def _mesh_chain(
     dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
 ):
@@ -817,6 +821,11 @@ def _mesh_chain(
     if split is None:
         return None
     lay, body = split
+    run = active()
+    if run is not None:
+        # a chain takes minutes: the bar follows the share of the polygon's area meshed
+        run.enter("chain of ladders", run.last, max(run.last, CHAIN_PROGRESS_END))
+    total = abs(signed_area(dec.polygon.z))
 
     def join(lay, q, start_r: MeshResult | None, end_r: MeshResult | None):
         v = lay.vertices
@@ -894,6 +903,7 @@ def _mesh_chain(
         kr, seg, (lay, q, body) = step
         segments.append((*seg, len(knots) - 1))
         knots.append(kr)
+        checkpoint(1.0 if body is None else 1.0 - abs(signed_area(body)) / total)
         if body is None:  # the ladder from the knot reaches the far tip
             seg = join(lay, q, kr, None)
             if seg is None:

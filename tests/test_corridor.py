@@ -599,12 +599,19 @@ def test_a_chain_restarts_the_ladder_past_where_it_gets_stuck():
 
     from quadmesh.families import river
     from quadmesh.pipeline import _mesh_chain
+    from quadmesh.progress import running
     from quadmesh.result import MeshOptions
 
     m = river(np.random.default_rng([8, 99]), n_vertices=200, ratio=20)
     poly = validate_polygon(m.vertices)
-    got = _mesh_chain(SimpleNamespace(polygon=poly), MeshOptions(), None)
+    seen: list[tuple[str, float]] = []
+    with running(lambda stage, f: seen.append((stage, f)), None) as run:
+        run.enter("corridor", 0.1)
+        got = _mesh_chain(SimpleNamespace(polygon=poly), MeshOptions(), None)
     assert got is not None
+    # the progress bar moves as knots are meshed, under the chain's own name
+    chain = [f for stage, f in seen if stage == "chain of ladders"]
+    assert len(set(chain)) >= 2 and chain == sorted(chain) and 0.1 <= chain[0] < chain[-1] <= 0.88
     asm, _pieces, thin, _dec = got
     assert sum(t.kind == "corridor" for t in thin) >= 2
     quads, _src = asm.all_quads()
