@@ -552,22 +552,52 @@ def _polish(
     on_wall = dirs != 0
 
     def at(x: NDArray[np.float64]) -> NDArray[np.complex128]:
-        zz = z.copy()
-        step = np.where(on_wall, x[:nf] * dirs, x[:nf] + 1j * x[nf : 2 * nf])
-        zz[free] = base + h * step
-        zz[spec[:, 0]] = fermat_point(zz[spec[:, 1]], zz[spec[:, 2]], zz[spec[:, 3]], refine=False)
-        return zz
+        """The local points for the offsets ``x`` (2·nf,) or for each row of ``x`` (B, 2·nf)."""
+        xs = np.atleast_2d(x)
+        zz = np.repeat(z[None, :], xs.shape[0], axis=0)
+        step = np.where(on_wall, xs[:, :nf] * dirs, xs[:, :nf] + 1j * xs[:, nf : 2 * nf])
+        zz[:, free] = base + h * step
+        zz[:, spec[:, 0]] = fermat_point(
+            zz[:, spec[:, 1]], zz[:, spec[:, 2]], zz[:, spec[:, 3]], refine=False
+        )
+        return zz if x.ndim == 2 else zz[0]
 
     def margins(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        zz = at(x)
-        a = quad_angles_deg(zz, quads)[~exact]
-        m = np.concatenate([a - 60.0, 120.0 - a, _fermat_room(zz, spec)])
-        return np.where(np.isfinite(m), m, -180.0)
+        """The margins for the offsets ``x`` (2·nf,), or per row of ``x`` (B, 2·nf)."""
+        zz = np.atleast_2d(at(x))
+        qq = np.broadcast_to(quads, (zz.shape[0], *quads.shape))
+        a = quad_angles_deg(zz, qq)[:, ~exact]
+        if spec.size:
+            q, nb = zz[:, spec[:, 0]], zz[:, spec[:, 1:]]
+            near = np.abs(nb - q[:, :, None]).min(axis=2)
+            side = np.abs(nb - np.roll(nb, 1, axis=2)).min(axis=2)
+            room = 100.0 * (near / side - FERMAT_ROOM)  # as _fermat_room, row by row
+        else:
+            room = np.zeros((zz.shape[0], 0))
+        m = np.concatenate([a - 60.0, 120.0 - a, room], axis=1)
+        m = np.where(np.isfinite(m), m, -180.0)
+        return m if x.ndim == 2 else m[0]
 
     def soft(x: NDArray[np.float64], tau: float) -> float:
         m = margins(x)
         lo = m.min()
         return -(lo - tau * np.log(np.sum(np.exp(-(m - lo) / tau))))
+
+    def soft_grad(x: NDArray[np.float64], tau: float) -> NDArray[np.float64]:
+        """Forward differences of :func:`soft` with BFGS's own absolute step (the gradient it
+        would take without ``jac``), all offsets evaluated in one batch."""
+        step = np.full(x.size, FD_STEP)
+        sign = (x >= 0).astype(float) * 2 - 1
+        step = np.where((x + step) - x == 0, FD_STEP * sign * np.maximum(1.0, np.abs(x)), step)
+        xs = np.repeat(x[None, :], x.size + 1, axis=0)
+        idx = np.arange(x.size)
+        xs[idx + 1, idx] = x + step
+        ms = margins(xs)
+        f = np.empty(x.size + 1)
+        for i, m in enumerate(ms):
+            lo = m.min()
+            f[i] = -(lo - tau * np.log(np.sum(np.exp(-(m - lo) / tau))))
+        return (f[1:] - f[0]) / ((x + step) - x)
 
     rng = np.random.default_rng(0)
     best_x, best_m = np.zeros(2 * nf), float(margins(np.zeros(2 * nf)).min())
@@ -582,11 +612,15 @@ def _polish(
     for trial in range(2):
         x = np.zeros(2 * nf) if trial == 0 else 0.1 * rng.standard_normal(2 * nf)
         opts = {"maxiter": 40}
-        x = minimize(soft, x, args=(2.0,), method="BFGS", options=opts, callback=stop).x
+        x = minimize(
+            soft, x, args=(2.0,), jac=soft_grad, method="BFGS", options=opts, callback=stop
+        ).x
         if margins(x).min() >= enough:
             best_x, best_m = x, float(margins(x).min())
             break
-        x = minimize(soft, x, args=(0.5,), method="BFGS", options=opts, callback=stop).x
+        x = minimize(
+            soft, x, args=(0.5,), jac=soft_grad, method="BFGS", options=opts, callback=stop
+        ).x
         x0 = np.concatenate([x, [margins(x).min()]])
         res = minimize(
             lambda v: -v[-1],
@@ -679,6 +713,10 @@ def _tilted(
     room = along * (0.5 - 1.0 / STAGE_LENGTH) * np.tan(np.radians(EVEN_TILT))
     return p if shift <= 0.0 else p + (p_even - p) * min(1.0, room / shift)
 
+
+#: Absolute step of the forward differences in :func:`_polish` (BFGS's default, the square
+#: root of float64's epsilon).
+FD_STEP = float(np.sqrt(np.finfo(float).eps))
 
 #: Passes of neighbour averaging that even out a cascade's fine rows first, and the largest
 #: tilt (degrees) of a row line in the slice that does it.
