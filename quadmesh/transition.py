@@ -522,6 +522,19 @@ def transition_mesh(
     )
 
 
+def _forward(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The points of scipy's forward differences at ``x`` with the absolute step
+    :data:`FD_STEP` (BFGS's and SLSQP's default): row 0 is ``x``, row i + 1 has ``x[i]`` moved
+    by ``step[i]``; returns (rows, step)."""
+    step = np.full(x.size, FD_STEP)
+    sign = (x >= 0).astype(float) * 2 - 1
+    step = np.where((x + step) - x == 0, FD_STEP * sign * np.maximum(1.0, np.abs(x)), step)
+    xs = np.repeat(x[None, :], x.size + 1, axis=0)
+    idx = np.arange(x.size)
+    xs[idx + 1, idx] = x + step
+    return xs, step
+
+
 def _polish(
     z: NDArray[np.complex128],
     quads: NDArray[np.int64],
@@ -586,18 +599,20 @@ def _polish(
     def soft_grad(x: NDArray[np.float64], tau: float) -> NDArray[np.float64]:
         """Forward differences of :func:`soft` with BFGS's own absolute step (the gradient it
         would take without ``jac``), all offsets evaluated in one batch."""
-        step = np.full(x.size, FD_STEP)
-        sign = (x >= 0).astype(float) * 2 - 1
-        step = np.where((x + step) - x == 0, FD_STEP * sign * np.maximum(1.0, np.abs(x)), step)
-        xs = np.repeat(x[None, :], x.size + 1, axis=0)
-        idx = np.arange(x.size)
-        xs[idx + 1, idx] = x + step
+        xs, step = _forward(x)
         ms = margins(xs)
         f = np.empty(x.size + 1)
         for i, m in enumerate(ms):
             lo = m.min()
             f[i] = -(lo - tau * np.log(np.sum(np.exp(-(m - lo) / tau))))
         return (f[1:] - f[0]) / ((x + step) - x)
+
+    def room(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Forward differences of SLSQP's constraints (margins less the bound ``v[-1]``) with
+        SLSQP's own absolute step, every offset in one batch: (constraints, variables)."""
+        vs, step = _forward(v)
+        f = margins(vs[:, :-1]) - vs[:, -1:]
+        return ((f[1:] - f[0]) / ((v + step) - v)[:, None]).T
 
     rng = np.random.default_rng(0)
     best_x, best_m = np.zeros(2 * nf), float(margins(np.zeros(2 * nf)).min())
@@ -626,7 +641,7 @@ def _polish(
             lambda v: -v[-1],
             x0,
             jac=lambda v: np.concatenate([np.zeros(v.size - 1), [-1.0]]),
-            constraints=[{"type": "ineq", "fun": lambda v: margins(v[:-1]) - v[-1]}],
+            constraints=[{"type": "ineq", "fun": lambda v: margins(v[:-1]) - v[-1], "jac": room}],
             method="SLSQP",
             options={"maxiter": 40, "ftol": 1e-10},
         )
