@@ -400,11 +400,26 @@ def _t_variants(
     m = LAYOUT_MARGIN
     out: list[_Ray] = []
     full = [r for r in rays if r.join < 0]
+    if not rays:
+        return out
+    # the segments of ``rays`` at once: a loose numpy test picks the pairs that may cross, the
+    # exact test below (as before) decides them
+    P = np.array([z[r.start] for r in rays], dtype=np.complex128)
+    D = np.array([r.end for r in rays], dtype=np.complex128) - P
+    starts = np.array([r.start for r in rays])
     for ra in full + list(bare):
+        p1 = complex(z[ra.start])
+        d1 = ra.end - p1
+        den = (np.conj(d1) * D).imag
+        w = P - p1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_ = (np.conj(w) * D).imag / den
+            t_ = (np.conj(w) * d1).imag / den
+        near = (starts != ra.start) & (s_ > -1e-6) & (s_ < 1 + 1e-6) & (t_ > -1e-6)
+        near &= t_ < 1 + 1e-6
         hits = []
-        for rb in rays:
-            if rb.start == ra.start:
-                continue
+        for b in np.flatnonzero(near).tolist():
+            rb = rays[b]
             x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
             if x is None:
                 continue
