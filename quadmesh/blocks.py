@@ -116,6 +116,9 @@ SEARCH_SECONDS = 3.0
 #: first ran out of time and neither a ladder nor a collar closed (measured: cmr10 "H" closes
 #: after 7.8 s, "n" after 12.4 s)
 LONG_SEARCH_SECONDS = 15.0
+#: ... in which T-junction candidates are made while the full and bare rays number at most
+#: this (measured: STIX "C" and "s", with 1,072 and 1,091 rays, then close in about a second)
+LONG_MAX_RAYS_FOR_TEES = 5000
 #: wall-clock seconds each search for a ladder along the polygon as one corridor may take at
 #: least
 LADDER_SECONDS = 5.0
@@ -1651,6 +1654,8 @@ def _cut_layout(
     seconds: float = SEARCH_SECONDS,
     junctions: bool = False,
     separate: bool = False,
+    tee_rays: int = MAX_RAYS_FOR_TEES,
+    more_tees: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
@@ -1664,7 +1669,10 @@ def _cut_layout(
     and at most :data:`JUNCTION_ANY_SLOTS` cut slots: round outlines with many obtuse corners
     are not helped by junctions in practice, and the search would only delay the collar that
     closes them.  ``separate``: faces that share no side get their centre points placed by
-    programs of their own (:func:`_split_cells`), which makes the rounds faster."""
+    programs of their own (:func:`_split_cells`), which makes the rounds faster.  T-junction
+    (and junction) candidates are made while the full and bare rays number at most
+    ``tee_rays``; with ``more_tees`` the search runs only if they number more than
+    :data:`MAX_RAYS_FOR_TEES` (else it would repeat the search with the default limit)."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
@@ -1683,7 +1691,9 @@ def _cut_layout(
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
-    small = len(rays) + len(bare) <= MAX_RAYS_FOR_TEES
+    if more_tees and len(rays) + len(bare) <= MAX_RAYS_FOR_TEES:
+        raise BlockLayoutError("the T-junction candidates were made already")
+    small = len(rays) + len(bare) <= tee_rays
     # junctions serve the cut slots no straight cut serves; where every slot has one, they are
     # still tried on a polygon with few cuts and a reflex corner (an arrow with swept-back
     # barbs), never on round outlines with many obtuse corners, which the collar closes
@@ -2111,14 +2121,24 @@ def mesh_blocks(
 
 
 def _long_cut_layout(z: NDArray[np.complex128], why: str) -> BlockLayout | None:
-    """The straight-cut layout searched for again, for :data:`LONG_SEARCH_SECONDS` per stage
-    with faster rounds (faces apart, :func:`_split_cells`), when the first search ran out of
-    time (``why``: its message) and neither a ladder nor a collar closed; None if it fails too
-    (or the first search did not run out of time: more time would not change its answer)."""
-    if "no layout within" not in why:
+    """The straight-cut layout searched for again when neither a ladder nor a collar closed,
+    for :data:`LONG_SEARCH_SECONDS` per stage with faster rounds (faces apart,
+    :func:`_split_cells`): when the first search ran out of time (``why``: its message), or
+    when a corner had no straight cut of its own and the candidates were too many for
+    T-junction candidates (more than :data:`MAX_RAYS_FOR_TEES`; now up to
+    :data:`LONG_MAX_RAYS_FOR_TEES`).  None if it fails too, or if neither applies (the search
+    would give the same answer)."""
+    timed_out = "no layout within" in why
+    if not timed_out and not why.startswith("no straight cut from the corner"):
         return None
     try:
-        return _cut_layout(z, seconds=LONG_SEARCH_SECONDS, separate=True)
+        return _cut_layout(
+            z,
+            seconds=LONG_SEARCH_SECONDS,
+            separate=True,
+            tee_rays=LONG_MAX_RAYS_FOR_TEES,
+            more_tees=not timed_out,
+        )
     except BlockLayoutError:
         return None
 

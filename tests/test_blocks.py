@@ -630,3 +630,32 @@ def test_long_cut_search_lays_out_a_glyph_the_first_search_ran_out_of_time_on() 
     q = pts[quads]
     area = 0.5 * np.sum((np.conj(q) * np.roll(q, -1, axis=1)).imag)
     assert area == pytest.approx(poly.area, rel=1e-9)
+
+
+def test_glyph_with_many_candidates_closes_with_t_junctions_on_the_long_search() -> None:
+    """STIX "C" (82 vertices): 1,072 full and bare candidate rays, more than the first search
+    makes T-junction candidates for, and a corner whose every straight cut meets the boundary
+    at less than 60°; no ladder or collar closes.  The second search makes them and closes:
+    ``mesh_polygon`` with ``method="blocks"`` returns the block mesh (no fallback), every
+    angle in [60°, 120°] recomputed from the coordinates, the polygon's area, conforming
+    (the strict check of ``finalize_mesh`` passed)."""
+    from quadmesh.blocks import MAX_RAYS_FOR_TEES, _long_cut_layout
+    from quadmesh.families import family_members
+
+    m = next(x for x in family_members("glyphs_stix") if x.name == "STIXGeneral_C")
+    poly = validate_polygon(m.vertices)
+    assert MAX_RAYS_FOR_TEES < 1072
+    # a search that had its T-junction candidates already is not repeated (the L-shape has a
+    # layout, but few candidates), nor one that failed for another reason
+    el = L_SHAPE[:, 0] + 1j * L_SHAPE[:, 1]
+    assert _long_cut_layout(el, "no straight cut from the corner at (1, 1)") is None
+    assert _long_cut_layout(poly.z, "121 cuts would be needed") is None
+    res = mesh_polygon(m.vertices, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks is not None and res.blocks.kind == "cuts"
+    assert res.verification.ok
+    zz = res.mesh.z + res.mesh_origin
+    ang = _corner_angles_deg(np.column_stack([zz.real, zz.imag]), res.mesh.quads)
+    assert ang.min() >= 60.0 - 1e-7 and ang.max() <= 120.0 + 1e-7
+    q = zz[res.mesh.quads]
+    area = 0.5 * np.sum((np.conj(q) * np.roll(q, -1, axis=1)).imag)
+    assert area == pytest.approx(poly.area, rel=1e-9)
