@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from itertools import pairwise
 
@@ -111,6 +112,13 @@ MAX_CONFLICTS = 150_000
 BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
 SEARCH_SECONDS = 3.0
+#: wall-clock seconds per stage of the second, longer straight-cut search, run only when the
+#: first ran out of time and neither a ladder nor a collar closed (measured: cmr10 "H" closes
+#: after 7.8 s, "n" after 12.4 s)
+LONG_SEARCH_SECONDS = 15.0
+#: ... in which T-junction candidates are made while the full and bare rays number at most
+#: this (measured: STIX "C" and "s", with 1,072 and 1,091 rays, then close in about a second)
+LONG_MAX_RAYS_FOR_TEES = 5000
 #: wall-clock seconds each search for a ladder along the polygon as one corridor may take at
 #: least
 LADDER_SECONDS = 5.0
@@ -400,11 +408,26 @@ def _t_variants(
     m = LAYOUT_MARGIN
     out: list[_Ray] = []
     full = [r for r in rays if r.join < 0]
+    if not rays:
+        return out
+    # the segments of ``rays`` at once: a loose numpy test picks the pairs that may cross, the
+    # exact test below (as before) decides them
+    P = np.array([z[r.start] for r in rays], dtype=np.complex128)
+    D = np.array([r.end for r in rays], dtype=np.complex128) - P
+    starts = np.array([r.start for r in rays])
     for ra in full + list(bare):
+        p1 = complex(z[ra.start])
+        d1 = ra.end - p1
+        den = (np.conj(d1) * D).imag
+        w = P - p1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_ = (np.conj(w) * D).imag / den
+            t_ = (np.conj(w) * d1).imag / den
+        near = (starts != ra.start) & (s_ > -1e-6) & (s_ < 1 + 1e-6) & (t_ > -1e-6)
+        near &= t_ < 1 + 1e-6
         hits = []
-        for rb in rays:
-            if rb.start == ra.start:
-                continue
+        for b in np.flatnonzero(near).tolist():
+            rb = rays[b]
             x = _seg_cross(z[ra.start], ra.end, z[rb.start], rb.end)
             if x is None:
                 continue
@@ -1252,6 +1275,7 @@ def _split_cells(
     tip_mask: NDArray[np.bool_],
     own_mask: NDArray[np.bool_],
     margin: float = 0.5 * LAYOUT_MARGIN,
+    separate: bool = False,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], list[int]]:
     """Split every face into quads about a centre point, one point on every face side (shared
     by the two faces on it): ``(points, cells, bad_faces)``.  Quadrilateral faces start from
@@ -1310,53 +1334,95 @@ def _split_cells(
     if np.any(bad_cells):
         # optimise the centres of the faces with bad cells and the side points around them
         bad_faces = np.unique(cell_face_a[bad_cells])
-        free_f = set(bad_faces.tolist())
-        free_s = sorted(
-            {int(R[c, 1]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
-            | {int(R[c, 3]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
-        )
-        # faces touching a free side move their centre too
-        touch = np.isin(R[:, 1], free_s) | np.isin(R[:, 3], free_s)
-        free_f |= set(cell_face_a[touch].tolist())
-        ff = np.array(sorted(free_f))
-        fs = np.array(free_s, dtype=np.int64)
-        rows = np.nonzero(np.isin(cell_face_a, ff))[0]
-        scale = np.array([max(abs(P[faces[f]] - C[f]).max(), 1e-300) for f in ff])
+        groups = [bad_faces]
+        if separate and len(bad_faces) > 1:
+            # faces that share no side are optimised apart: smaller programs, each with its
+            # own least slack
+            parent = {int(f): int(f) for f in bad_faces}
 
-        def unpack(x: NDArray[np.float64]) -> NDArray[np.complex128]:
-            tt = t.copy()
-            tt[fs] = x[: len(fs)]
-            cc = C.copy()
-            xy = x[len(fs) :].reshape(-1, 2)
-            cc[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
-            return positions(tt, cc)
+            def root(f: int) -> int:
+                while parent[f] != f:
+                    f = parent[f]
+                return f
 
-        def cons(x: NDArray[np.float64]) -> NDArray[np.float64]:
-            s = slack(unpack(x[:-1]))[rows].ravel()
-            return s - x[-1]
-
-        x0 = np.concatenate([t[fs], np.zeros(2 * len(ff)), [float(sl[rows].min())]])
-        lb = np.concatenate([np.full(len(fs), 0.05), np.full(2 * len(ff), -0.9), [-90.0]])
-        ub = np.concatenate([np.full(len(fs), 0.95), np.full(2 * len(ff), 0.9), [90.0]])
-        res = minimize(
-            lambda x: -x[-1],
-            x0,
-            method="SLSQP",
-            constraints=[{"type": "ineq", "fun": cons}],
-            bounds=list(zip(lb, ub)),
-            options={"maxiter": 200, "ftol": 1e-9},
-        )
-        x = res.x if res.x is not None else x0
-        X = unpack(x[:-1])
-        tt = t.copy()
-        tt[fs] = x[: len(fs)]
-        t = tt
-        xy = x[len(fs) : -1].reshape(-1, 2)
-        C = C.copy()
-        C[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
+            by_side: dict[int, list[int]] = {}
+            for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0].tolist():
+                for sd in (int(R[c, 1]), int(R[c, 3])):
+                    by_side.setdefault(sd, []).append(int(cell_face_a[c]))
+            for fl in by_side.values():
+                for f in fl[1:]:
+                    parent[root(f)] = root(fl[0])
+            comp: dict[int, list[int]] = {}
+            for f in bad_faces.tolist():
+                comp.setdefault(root(int(f)), []).append(int(f))
+            groups = [np.array(g) for g in comp.values()]
+        for group in groups:
+            t, C = _centre_opt(P, R, cell_face_a, faces, group, t, C, slack, positions)
+        X = positions(t, C)
         sl = slack(X)
     still = np.any(sl < 0, axis=1)
     return X, Q, sorted(set(cell_face_a[still].tolist()))
+
+
+def _centre_opt(
+    P: NDArray[np.complex128],
+    R: NDArray[np.int64],
+    cell_face_a: NDArray[np.int64],
+    faces: list[NDArray[np.int64]],
+    bad_faces: NDArray[np.int64],
+    t: NDArray[np.float64],
+    C: NDArray[np.complex128],
+    slack: Callable[[NDArray[np.complex128]], NDArray[np.float64]],
+    positions: Callable[[NDArray[np.float64], NDArray[np.complex128]], NDArray[np.complex128]],
+) -> tuple[NDArray[np.float64], NDArray[np.complex128]]:
+    """One max-min program of :func:`_split_cells`: the centres of ``bad_faces`` and of the
+    faces touching their sides, and those side points, placed by SLSQP to maximise the least
+    slack of their cells; returns the new side parameters ``t`` and centres ``C``."""
+    free_f = set(bad_faces.tolist())
+    free_s = sorted(
+        {int(R[c, 1]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
+        | {int(R[c, 3]) for c in np.nonzero(np.isin(cell_face_a, bad_faces))[0]}
+    )
+    # faces touching a free side move their centre too
+    touch = np.isin(R[:, 1], free_s) | np.isin(R[:, 3], free_s)
+    free_f |= set(cell_face_a[touch].tolist())
+    ff = np.array(sorted(free_f))
+    fs = np.array(free_s, dtype=np.int64)
+    rows = np.nonzero(np.isin(cell_face_a, ff))[0]
+    scale = np.array([max(abs(P[faces[f]] - C[f]).max(), 1e-300) for f in ff])
+    sl = slack(positions(t, C))
+
+    def unpack(x: NDArray[np.float64]) -> NDArray[np.complex128]:
+        tt = t.copy()
+        tt[fs] = x[: len(fs)]
+        cc = C.copy()
+        xy = x[len(fs) :].reshape(-1, 2)
+        cc[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
+        return positions(tt, cc)
+
+    def cons(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        s = slack(unpack(x[:-1]))[rows].ravel()
+        return s - x[-1]
+
+    x0 = np.concatenate([t[fs], np.zeros(2 * len(ff)), [float(sl[rows].min())]])
+    lb = np.concatenate([np.full(len(fs), 0.05), np.full(2 * len(ff), -0.9), [-90.0]])
+    ub = np.concatenate([np.full(len(fs), 0.95), np.full(2 * len(ff), 0.9), [90.0]])
+    res = minimize(
+        lambda x: -x[-1],
+        x0,
+        method="SLSQP",
+        constraints=[{"type": "ineq", "fun": cons}],
+        bounds=list(zip(lb, ub)),
+        options={"maxiter": 200, "ftol": 1e-9},
+    )
+    x = res.x if res.x is not None else x0
+    tt = t.copy()
+    tt[fs] = x[: len(fs)]
+    t = tt
+    xy = x[len(fs) : -1].reshape(-1, 2)
+    C = C.copy()
+    C[ff] = C[ff] + scale * (xy[:, 0] + 1j * xy[:, 1])
+    return t, C
 
 
 class _PointIndex:
@@ -1587,6 +1653,9 @@ def _cut_layout(
     kites: _KiteCut = _KiteCut(),
     seconds: float = SEARCH_SECONDS,
     junctions: bool = False,
+    separate: bool = False,
+    tee_rays: int = MAX_RAYS_FOR_TEES,
+    more_tees: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
@@ -1599,7 +1668,11 @@ def _cut_layout(
     corner has no straight cut of its own to the boundary or the polygon has a reflex corner
     and at most :data:`JUNCTION_ANY_SLOTS` cut slots: round outlines with many obtuse corners
     are not helped by junctions in practice, and the search would only delay the collar that
-    closes them."""
+    closes them.  ``separate``: faces that share no side get their centre points placed by
+    programs of their own (:func:`_split_cells`), which makes the rounds faster.  T-junction
+    (and junction) candidates are made while the full and bare rays number at most
+    ``tee_rays``; with ``more_tees`` the search runs only if they number more than
+    :data:`MAX_RAYS_FOR_TEES` (else it would repeat the search with the default limit)."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
@@ -1618,7 +1691,9 @@ def _cut_layout(
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
-    small = len(rays) + len(bare) <= MAX_RAYS_FOR_TEES
+    if more_tees and len(rays) + len(bare) <= MAX_RAYS_FOR_TEES:
+        raise BlockLayoutError("the T-junction candidates were made already")
+    small = len(rays) + len(bare) <= tee_rays
     # junctions serve the cut slots no straight cut serves; where every slot has one, they are
     # still tried on a polygon with few cuts and a reflex corner (an arrow with swept-back
     # barbs), never on round outlines with many obtuse corners, which the collar closes
@@ -1679,6 +1754,7 @@ def _cut_layout(
             kites,
             min(JUNCTION_SECONDS, left) if stage == 2 else seconds,
             JUNCTION_GAP if stage == 2 else None,
+            separate,
         )
         if lay is not None:
             return lay
@@ -1842,9 +1918,11 @@ def _search(
     kites: _KiteCut = _KiteCut(),
     seconds: float = SEARCH_SECONDS,
     rel_gap: float | None = None,
+    separate: bool = False,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
-    ``kites`` and ``seconds`` as in :func:`_cut_layout`, ``rel_gap`` as in :func:`_solve`)."""
+    ``kites``, ``seconds`` and ``separate`` as in :func:`_cut_layout`, ``rel_gap`` as in
+    :func:`_solve`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     if any(r.arms for r in rays):
@@ -1896,10 +1974,12 @@ def _search(
                 X, split = P, False
             else:
                 rest = [k for k in range(len(faces)) if k not in whole]
-                X, cells, wrong = _split_cells(P, [faces[k] for k in rest], pm, own)
+                X, cells, wrong = _split_cells(
+                    P, [faces[k] for k in rest], pm, own, separate=separate
+                )
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
                     X, cells, wrong = _split_cells(
-                        P, [faces[k] for k in rest], pm, own, margin=-ANGLE_TOL
+                        P, [faces[k] for k in rest], pm, own, margin=-ANGLE_TOL, separate=separate
                     )
                 wrong = [rest[k] for k in wrong]
                 if whole:
@@ -1996,7 +2076,8 @@ def mesh_blocks(
 
     The layout is the first of: straight cuts (:func:`block_layout`); a ladder of straight
     cells along the polygon as one corridor (:func:`_ladder_mesh`); a collar around a lattice
-    core (:func:`quadmesh.rings.ring_layout`).
+    core (:func:`quadmesh.rings.ring_layout`); straight cuts again with a longer search when
+    the first ran out of time (:func:`_long_cut_layout`).
 
     Returns:
         ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices;
@@ -2024,10 +2105,12 @@ def mesh_blocks(
         try:
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
-            raise BlockLayoutError(
-                f"{exc.args[0]}; nor does a ladder of straight cells along the polygon "
-                f"({why[-1]}) or a collar around a lattice core close ({ring_exc.args[0]})"
-            ) from exc
+            lay = _long_cut_layout(z, exc.args[0])
+            if lay is None:
+                raise BlockLayoutError(
+                    f"{exc.args[0]}; nor does a ladder of straight cells along the polygon "
+                    f"({why[-1]}) or a collar around a lattice core close ({ring_exc.args[0]})"
+                ) from exc
     # the layout's corners were checked when it was built, up to ANGLE_TOL for corners that
     # sit exactly on 60° or 120° (triangle and hexagon faces); the final mesh is verified by
     # the caller with the strict fixed tolerance
@@ -2035,6 +2118,29 @@ def mesh_blocks(
         lay.points, lay.cells, size=h, tips=lay.tips.tolist(), check=False
     )
     return pts, quads, lay, info
+
+
+def _long_cut_layout(z: NDArray[np.complex128], why: str) -> BlockLayout | None:
+    """The straight-cut layout searched for again when neither a ladder nor a collar closed,
+    for :data:`LONG_SEARCH_SECONDS` per stage with faster rounds (faces apart,
+    :func:`_split_cells`): when the first search ran out of time (``why``: its message), or
+    when a corner had no straight cut of its own and the candidates were too many for
+    T-junction candidates (more than :data:`MAX_RAYS_FOR_TEES`; now up to
+    :data:`LONG_MAX_RAYS_FOR_TEES`).  None if it fails too, or if neither applies (the search
+    would give the same answer)."""
+    timed_out = "no layout within" in why
+    if not timed_out and not why.startswith("no straight cut from the corner"):
+        return None
+    try:
+        return _cut_layout(
+            z,
+            seconds=LONG_SEARCH_SECONDS,
+            separate=True,
+            tee_rays=LONG_MAX_RAYS_FOR_TEES,
+            more_tees=not timed_out,
+        )
+    except BlockLayoutError:
+        return None
 
 
 def _ladder_mesh(

@@ -600,3 +600,62 @@ def test_walk_ladders_keep_the_coarser_sectors_when_they_give_fewer_quads(index:
     assert res.mesh.n_quads <= len(only16.quads)
     if index in (1, 9):  # measured: 8,732 -> 5,910 and 8,475 -> 4,425 quads
         assert res.mesh.n_quads < 0.8 * len(only16.quads)
+
+
+def test_long_cut_search_lays_out_a_glyph_the_first_search_ran_out_of_time_on() -> None:
+    """Computer Modern "H" (68 vertices, 44 cut slots): the first straight-cut search runs out
+    of its 3 s after a round or two, and neither a ladder nor a collar closes; the longer search
+    with faster rounds (faces apart) closes it.  Its mesh passes the strict check: every angle
+    in [60°, 120°] (recomputed from the coordinates), conforming, the polygon's area."""
+    from quadmesh.blocks import LONG_SEARCH_SECONDS, _long_cut_layout
+    from quadmesh.cells import refine_layout
+    from quadmesh.families import family_members
+    from quadmesh.mesh import finalize_mesh
+
+    m = next(x for x in family_members("glyphs_cm") if x.name == "cmr10_H")
+    poly = validate_polygon(m.vertices)
+    z = poly.z
+    assert LONG_SEARCH_SECONDS >= 10.0
+    # only a search that ran out of time is repeated
+    assert _long_cut_layout(z, "no set of straight cuts ... (4 face(s) could not be split)") is None
+    lay = _long_cut_layout(z, "no set of straight cuts ... (no layout within 3 s of search)")
+    assert lay is not None and lay.kind == "cuts"
+    assert np.all(lay.points[: len(z)] == z)
+    h = default_block_size(z)
+    pts, quads, _ = refine_layout(lay.points, lay.cells, size=h, tips=lay.tips.tolist())
+    _mesh, _, report = finalize_mesh(poly, pts, quads)
+    assert report.ok
+    ang = _corner_angles_deg(np.column_stack([pts.real, pts.imag]), quads)
+    assert ang.min() >= 60.0 - 1e-7 and ang.max() <= 120.0 + 1e-7
+    q = pts[quads]
+    area = 0.5 * np.sum((np.conj(q) * np.roll(q, -1, axis=1)).imag)
+    assert area == pytest.approx(poly.area, rel=1e-9)
+
+
+def test_glyph_with_many_candidates_closes_with_t_junctions_on_the_long_search() -> None:
+    """STIX "C" (82 vertices): 1,072 full and bare candidate rays, more than the first search
+    makes T-junction candidates for, and a corner whose every straight cut meets the boundary
+    at less than 60°; no ladder or collar closes.  The second search makes them and closes:
+    ``mesh_polygon`` with ``method="blocks"`` returns the block mesh (no fallback), every
+    angle in [60°, 120°] recomputed from the coordinates, the polygon's area, conforming
+    (the strict check of ``finalize_mesh`` passed)."""
+    from quadmesh.blocks import MAX_RAYS_FOR_TEES, _long_cut_layout
+    from quadmesh.families import family_members
+
+    m = next(x for x in family_members("glyphs_stix") if x.name == "STIXGeneral_C")
+    poly = validate_polygon(m.vertices)
+    assert MAX_RAYS_FOR_TEES < 1072
+    # a search that had its T-junction candidates already is not repeated (the L-shape has a
+    # layout, but few candidates), nor one that failed for another reason
+    el = L_SHAPE[:, 0] + 1j * L_SHAPE[:, 1]
+    assert _long_cut_layout(el, "no straight cut from the corner at (1, 1)") is None
+    assert _long_cut_layout(poly.z, "121 cuts would be needed") is None
+    res = mesh_polygon(m.vertices, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks is not None and res.blocks.kind == "cuts"
+    assert res.verification.ok
+    zz = res.mesh.z + res.mesh_origin
+    ang = _corner_angles_deg(np.column_stack([zz.real, zz.imag]), res.mesh.quads)
+    assert ang.min() >= 60.0 - 1e-7 and ang.max() <= 120.0 + 1e-7
+    q = zz[res.mesh.quads]
+    area = 0.5 * np.sum((np.conj(q) * np.roll(q, -1, axis=1)).imag)
+    assert area == pytest.approx(poly.area, rel=1e-9)
