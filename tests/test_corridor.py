@@ -502,15 +502,11 @@ def _check_part_mesh(v: np.ndarray, quads: np.ndarray, q: np.ndarray) -> None:
     assert cnt.max() == 2
 
 
-@pytest.mark.parametrize(("n_start", "n_end"), [(41, 28), (28, 41), (33, 32)])
-def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
-    """A bridge between two meshes whose cuts carry counts differing by an odd number (a quad
-    mesh of a disk has an even number of boundary edges, so the pairs of split rows alone
-    cannot join them): a cascade starting with a parity row, one wall one point longer. The
-    bridge's mesh — the C-shaped stroke of the test above, its first rung carrying ``n_start``
-    graded points, its last rung ``n_end`` — is checked from outside:
-    convex counter-clockwise quads, every angle in [60°, 120°] away from polygon corners,
-    conformity, and both rungs carrying exactly the given points."""
+def _join_on_the_c_bridge(p_start: np.ndarray, p_end: np.ndarray) -> None:
+    """Mesh the bridge of the C stroke with ``_c_with_blobs``'s bridge layout, its first rung
+    carrying points at the parameters ``p_start`` (0 … 1 along it), its last rung at
+    ``p_end``, and check it from outside: both rungs carry exactly those points, then
+    :func:`_check_part_mesh`."""
     from quadmesh.thin.corridor import bridge_cuts, bridge_layout, mesh_arm
 
     z = _c_with_blobs()
@@ -518,17 +514,30 @@ def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
     lay, q, body = bridge_layout(c.second) or bridge_layout(c.first)
     assert body is not None
 
-    def on_rung(k: int, n: int) -> np.ndarray:
+    def on_rung(k: int, p: np.ndarray) -> np.ndarray:
         a, b = lay.vertices[lay.rungs[k]]
-        s = np.linspace(0.0, 1.0, n) ** 1.2  # graded towards one wall
-        return a + s * (b - a)
+        return a + p * (b - a)
 
-    start, end = on_rung(0, n_start), on_rung(len(lay.rungs) - 1, n_end)
+    start, end = on_rung(0, p_start), on_rung(len(lay.rungs) - 1, p_end)
     cm = mesh_arm(lay, q, end, start_points=start)
     v, quads = cm.vertices, cm.quads
     assert np.allclose(np.sort_complex(v[cm.start]), np.sort_complex(start), atol=1e-12)
     assert np.allclose(np.sort_complex(v[cm.cut]), np.sort_complex(end), atol=1e-12)
     _check_part_mesh(v, quads, q)
+
+
+@pytest.mark.parametrize(("n_start", "n_end"), [(41, 28), (28, 41), (33, 32)])
+def test_a_bridge_joins_point_counts_of_odd_difference(n_start, n_end):
+    """A bridge between two meshes whose cuts carry counts differing by an odd number (a quad
+    mesh of a disk has an even number of boundary edges, so the pairs of split rows alone
+    cannot join them): a cascade starting with a parity row, one wall one point longer. The
+    bridge's mesh — the C-shaped stroke of the test above, its first rung carrying ``n_start``
+    points graded towards one wall, its last rung ``n_end`` — is checked from outside:
+    convex counter-clockwise quads, every angle in [60°, 120°] away from polygon corners,
+    conformity, and both rungs carrying exactly the given points."""
+    _join_on_the_c_bridge(
+        np.linspace(0.0, 1.0, n_start) ** 1.2, np.linspace(0.0, 1.0, n_end) ** 1.2
+    )
 
 
 def test_a_bridge_joins_irregular_points_of_odd_difference():
@@ -536,25 +545,15 @@ def test_a_bridge_joins_irregular_points_of_odd_difference():
     6× between neighbours, 61 on one rung and 60 on the other. The parity row sits at a wall,
     a few of the wall row's gaps long; it is built beside the rows as they are when evening
     them out within so short a slice would fold it. Checked from outside as above."""
-    from quadmesh.thin.corridor import bridge_cuts, bridge_layout, mesh_arm
-
-    z = _c_with_blobs()
-    c = bridge_cuts(z)[0]
-    lay, q, _body = bridge_layout(c.second) or bridge_layout(c.first)
     rng = np.random.default_rng(0)
 
-    def on_rung(k: int, n: int) -> np.ndarray:
-        a, b = lay.vertices[lay.rungs[k]]
+    def irregular(n: int) -> np.ndarray:
         i = np.arange(n - 1)
         h = (1.0 + np.minimum(i, n - 2 - i) / 5.0) * rng.uniform(1.0, 6.0, n - 1)
-        return a + np.r_[0.0, np.cumsum(h)[:-1] / h.sum(), 1.0] * (b - a)
+        return np.r_[0.0, np.cumsum(h)[:-1] / h.sum(), 1.0]
 
-    start, end = on_rung(0, 61), on_rung(len(lay.rungs) - 1, 60)
-    cm = mesh_arm(lay, q, end, start_points=start)
-    v, quads = cm.vertices, cm.quads
-    assert np.allclose(np.sort_complex(v[cm.start]), np.sort_complex(start), atol=1e-12)
-    assert np.allclose(np.sort_complex(v[cm.cut]), np.sort_complex(end), atol=1e-12)
-    _check_part_mesh(v, quads, q)
+    p_start = irregular(61)
+    _join_on_the_c_bridge(p_start, irregular(60))
 
 
 def test_restart_cuts_cross_the_corridor_beyond_the_rung_a_ladder_stopped_at():
