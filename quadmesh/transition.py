@@ -283,12 +283,13 @@ def _fermat_room(z: NDArray[np.complex128], spec: NDArray[np.int64]) -> NDArray[
     """Per valence-3 vertex (rows of ``spec``: Q and its three neighbours), its distance to the
     nearest neighbour over the shortest side of the neighbours' triangle, less
     :data:`FERMAT_ROOM`, times 100 (so that it reads like a margin in degrees).  A Fermat point
-    crowding a neighbour makes a sliver whose 120° angles float64 cannot hold."""
+    crowding a neighbour makes a sliver whose 120° angles float64 cannot hold.  ``z`` may be
+    stacked (B, V): one row of values per copy."""
     if spec.size == 0:
-        return np.zeros(0)
-    q, x = z[spec[:, 0]], z[spec[:, 1:]]
-    near = np.abs(x - q[:, None]).min(axis=1)
-    side = np.abs(x - np.roll(x, 1, axis=1)).min(axis=1)
+        return np.zeros((*z.shape[:-1], 0))
+    q, x = z[..., spec[:, 0]], z[..., spec[:, 1:]]
+    near = np.abs(x - q[..., None]).min(axis=-1)
+    side = np.abs(x - np.roll(x, 1, axis=-1)).min(axis=-1)
     return 100.0 * (near / side - FERMAT_ROOM)
 
 
@@ -580,14 +581,7 @@ def _polish(
         zz = np.atleast_2d(at(x))
         qq = np.broadcast_to(quads, (zz.shape[0], *quads.shape))
         a = quad_angles_deg(zz, qq)[:, ~exact]
-        if spec.size:
-            q, nb = zz[:, spec[:, 0]], zz[:, spec[:, 1:]]
-            near = np.abs(nb - q[:, :, None]).min(axis=2)
-            side = np.abs(nb - np.roll(nb, 1, axis=2)).min(axis=2)
-            room = 100.0 * (near / side - FERMAT_ROOM)  # as _fermat_room, row by row
-        else:
-            room = np.zeros((zz.shape[0], 0))
-        m = np.concatenate([a - 60.0, 120.0 - a, room], axis=1)
+        m = np.concatenate([a - 60.0, 120.0 - a, _fermat_room(zz, spec)], axis=1)
         m = np.where(np.isfinite(m), m, -180.0)
         return m if x.ndim == 2 else m[0]
 
