@@ -1698,7 +1698,12 @@ def _cut_layout(
     # still tried on a polygon with few cuts and a reflex corner (an arrow with swept-back
     # barbs), never on round outlines with many obtuse corners, which the collar closes
     few = len(slots) <= JUNCTION_ANY_SLOTS and bool(np.any(theta > 180.0))
-    if junctions and not (small and (missing or few)):
+    if junctions and not small:
+        raise BlockLayoutError(
+            f"{len(rays) + len(bare)} candidate cuts are too many to search for junctions "
+            f"(at most {tee_rays})"
+        )
+    if junctions and not (missing or few):
         raise BlockLayoutError("every corner has a straight cut of its own: no junction searched")
     if junctions and not missing:
         missing = list(slots)
