@@ -158,6 +158,60 @@ def test_bends_are_vertex_sectors(turn, quad_segs):
     assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
 
 
+@pytest.mark.parametrize("quad_segs", [4, 8])
+def test_a_sharper_bend_is_a_sector_whose_rows_turn(quad_segs):
+    """A 100° bend: seen from its inner corner the outer wall is far from round (the rungs end
+    at the feet of the straight walls, the round corner lies 1.3 times as far), and straight
+    connection quads from the sector's core leave [60°, 120°]; with ``turn=True`` the rows turn
+    to meet the outer wall at right angles and the bend meshes."""
+    from quadmesh.errors import ThinPartError
+    from quadmesh.thin.corridor import mesh_corridor
+
+    poly = _bent_stroke(100.0, quad_segs)
+    z = poly[:, 0] + 1j * poly[:, 1]
+    with pytest.raises(ThinPartError):
+        ladder_layout(z)
+    lay = ladder_layout(z, turn=True)
+    assert lay.turn and len(lay.sectors) == 1
+    cm = mesh_corridor(z, lay=lay)
+    v = np.column_stack([cm.vertices.real, cm.vertices.imag])
+    lo, hi = independent_check(validate_polygon(poly).vertices, v, cm.quads, tol=1e-7)
+    assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
+
+
+def test_turned_rows_leave_the_core_radially_and_meet_the_crosscut_at_right_angles():
+    """``_turned_rows``: on every spoke a curve from the core's point (leaving along the polar
+    ray) to the crosscut point (arriving along the crosscut's normal, the bisector of its two
+    chords), the two side spokes straight (their points stay on the rungs), and share 0 the
+    plain straight rows."""
+    from quadmesh.thin.corridor import _turned_rows
+
+    rng = np.random.default_rng(3)
+    apex = 0.5 - 0.2j
+    ang = np.radians(np.sort(rng.uniform(0.0, 110.0, 9)))
+    ang = np.r_[0.0, ang, np.radians(110.0)]
+    gp = apex + rng.uniform(0.9, 1.4, ang.size) * np.exp(1j * ang)
+    low = apex + 0.25 * np.exp(1j * np.linspace(0.0, np.radians(110.0), ang.size))
+    s = np.array([[0.0] * ang.size, [1.0 - 1e-7] * ang.size, [1.0] * ang.size])
+    rows = _turned_rows(apex, low, gp, s)
+    assert np.allclose(rows[0], low, atol=1e-14) and np.allclose(rows[2], gp, atol=1e-14)
+    arrive = (rows[2] - rows[1]) / np.abs(rows[2] - rows[1])
+    ch = np.diff(gp) / np.abs(np.diff(gp))
+    normal = -1j * (ch[:-1] + ch[1:])
+    normal /= np.abs(normal)
+    assert np.abs(arrive[1:-1] - normal).max() < 1e-5
+    mid = _turned_rows(apex, low, gp, np.full((3, ang.size), [[0.2], [0.5], [0.8]]))
+    for j in (0, -1):  # the sides: on the segment low–gp at the row's fraction
+        f = np.array([0.2, 0.5, 0.8])
+        assert np.allclose(mid[:, j], low[j] + f * (gp[j] - low[j]), atol=1e-14)
+    assert (
+        np.abs(mid[:, 1:-1] - (low + np.array([[0.2], [0.5], [0.8]]) * (gp - low))[:, 1:-1]).max()
+        > 1e-3
+    )
+    flat = _turned_rows(apex, low, gp, np.full((1, ang.size), 0.5), share=0.0)
+    assert np.allclose(flat[0], 0.5 * (low + gp), atol=1e-14)
+
+
 def _tadpole(length: float) -> np.ndarray:
     """A disk (the head) with a long thin wavy tail: no corridor as a whole, and too crowded
     for one disk map (the tail is 20–40 widths long)."""

@@ -78,6 +78,9 @@ class CorridorLayout:
             from the far end of one rung along the other wall to the far end of the other.
         open_end: True for an *arm* (``partial=True``): the ladder stops at its last rung,
             where the rest of the polygon (the body) begins.
+        turn: the layout search admitted round ends and bends whose connection rows turn
+            (:func:`_turned_rows`) where plain rows leave [60°, 120°]; the mesh then builds
+            such rows where the plain ones fail.
     """
 
     vertices: np.ndarray
@@ -90,6 +93,7 @@ class CorridorLayout:
     cell_rungs: np.ndarray | None = None
     sectors: tuple[tuple[int, tuple[int, ...]], ...] = ()
     open_end: bool = False
+    turn: bool = False
 
 
 def _ccw_angle(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -235,6 +239,7 @@ def ladder_layout(
     deadline: float | None = None,
     sector_chords: int = 16,
     tip_reach: bool = True,
+    turn: bool = False,
 ) -> CorridorLayout:
     """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
     its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
@@ -245,7 +250,9 @@ def ladder_layout(
     chords on the crosscut of a round end's or a bend's sector (:func:`_sector_points`).
     ``tip_reach``: near the tips, rungs reach three times the distance to the other wall even
     where the wall normal meets the corridor's own end sooner (off for a bridge, whose first
-    rung must be its cut).
+    rung must be its cut). ``turn``: round ends and bends may also be sectors whose
+    connection rows turn to meet their crosscut at right angles (:func:`_turned_rows`) where
+    straight rows leave the range (sharp bends of zigzags and walks).
 
     Raises:
         ThinPartError: no admissible layout exists with the sampled rung ends (the message
@@ -517,7 +524,7 @@ def ladder_layout(
                 rv_ = [int(g) for g in R.gid[b + 1 :][R.is_vertex[b + 1 :]]]
                 ids = [int(L.gid[a]), *lv_, e, *rv_[::-1], int(R.gid[b])]
                 pts = np.r_[L.pos[a], z[lv_], z[e], z[rv_[::-1]], R.pos[b]]
-            c = _round_cap_cost(pts, sector_chords)
+            c = _round_cap_cost(pts, sector_chords, turn)
             if c is None:
                 continue
             round_gamma[(end, int(r))] = ids
@@ -584,10 +591,18 @@ def ladder_layout(
                     seq = np.column_stack([o0[idx], mids, o1[idx]])
                 n_pts = _sector_points(int(nbv) + 1, sector_chords)
                 A, good = _connection_angles_many(zc[idx], O.pos[seq], n_pts)
-                keep[idx] = (
-                    good & (A.min(axis=(1, 2)) >= lo_ang) & (A.max(axis=(1, 2)) <= 120.0 - margin)
-                )
+                inside = (A.min(axis=(1, 2)) >= lo_ang) & (A.max(axis=(1, 2)) <= 120.0 - margin)
+                keep[idx] = good & inside
                 cost[idx] = 4.0 + np.abs(A - 90).max(axis=(1, 2)) / 30
+                # where plain rows leave the range, rows that turn (:func:`_turned_rows`)
+                redo = np.flatnonzero(good & ~inside) if turn else ()
+                if len(redo):
+                    A2, _ = _connection_angles_many(
+                        zc[idx[redo]], O.pos[seq[redo]], n_pts, turned=True
+                    )
+                    fine = (A2.min(axis=(1, 2)) >= lo_ang) & (A2.max(axis=(1, 2)) <= 120.0 - margin)
+                    keep[idx[redo[fine]]] = True
+                    cost[idx[redo[fine]]] = 4.5 + np.abs(A2[fine] - 90).max(axis=(1, 2)) / 30
                 kept = keep[idx]
                 for t, row in zip(idx[kept], O.gid[seq[kept]]):
                     gids[t] = row
@@ -725,6 +740,7 @@ def ladder_layout(
         cell_rungs=np.asarray(cell_rungs, dtype=np.int64).reshape(-1, 2),
         sectors=tuple((int(remap[a]), tuple(int(remap[i]) for i in g)) for a, g in sectors),
         open_end=open_end,
+        turn=turn,
     )
 
 
@@ -772,7 +788,7 @@ def _quad_cap_ok(q: np.ndarray, margin: float) -> bool:
     return bool(ok[0])
 
 
-def _round_cap_cost(pts: np.ndarray, sector_chords: int = 16) -> float | None:
+def _round_cap_cost(pts: np.ndarray, sector_chords: int = 16, turn: bool = False) -> float | None:
     """Cost of a round cap with boundary ``pts`` (first and last: the rung's ends), or None if
     the cap is not a half-disk about the rung's midpoint: every point within 25 % of the
     rung's half-length from the midpoint, in strictly increasing polar angle from 0° to 180°."""
@@ -793,14 +809,18 @@ def _round_cap_cost(pts: np.ndarray, sector_chords: int = 16) -> float | None:
     ang[0], ang[-1] = 0.0, np.pi
     if np.any(ang[1:-1] <= 0) or np.any(np.diff(ang) <= 1e-9):
         return None
-    # the connection quads between the sector's core and the cap's points
-    try:
-        a_ = _connection_angles(o, pts, _sector_points(pts.size - 1, sector_chords))
-    except ThinPartError:
-        return None
-    if a_.min() < 60.0 + CELL_MARGIN or a_.max() > 120.0 - CELL_MARGIN:
-        return None
-    return 3.0 + float(np.abs(a_ - 90.0).max()) / 30.0
+    # the connection quads between the sector's core and the cap's points: plain rows, else
+    # turned ones (:func:`_turned_rows`)
+    for turned in (False, True)[: 1 + turn]:
+        try:
+            a_ = _connection_angles(
+                o, pts, _sector_points(pts.size - 1, sector_chords), turned=turned
+            )
+        except ThinPartError:
+            return None
+        if a_.min() >= 60.0 + CELL_MARGIN and a_.max() <= 120.0 - CELL_MARGIN:
+            return 3.0 + float(np.abs(a_ - 90.0).max()) / 30.0 + 0.5 * turned
+    return None
 
 
 def _cell_cost(q0, q1, q2, q3, margin):
@@ -933,6 +953,13 @@ def _mesh_layout(
         for (o, g, kind), rows, n in zip(structs, plan, n_pts):
             m = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows)
             a_ = m[4]
+            for share in TURN_SHARES if lay.turn and rows[0].size else ():
+                if a_.min() >= 60.0 and a_.max() <= 120.0:
+                    break
+                # a sharp bend or a ragged end: the rows turn (as the layout search checked)
+                m2 = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows, turned=share)
+                if m2[4].min() >= 60.0 and m2[4].max() <= 120.0:
+                    m, a_ = m2, m2[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
                 raise ThinPartError(
                     f"the {'round end' if kind == 'cap' else 'bend'} near ({o.real:.6g}, "
@@ -1604,6 +1631,53 @@ def _sector_points(n_chords: int, least: int = 16) -> int:
     return 2 ** int(np.ceil(np.log2(max(n_chords, least)))) + 1
 
 
+#: How far the rows of a sector turn (:func:`_turned_rows`), tried in this order when a
+#: layout admits turned sectors: all the way, then part of the way (the rows a corridor's
+#: neighbours fix on a bend's sides are not those the layout search checked).
+TURN_SHARES = (1.0, 0.6, 0.3)
+
+
+def _turned_rows(
+    apex, low: np.ndarray, gp: np.ndarray, frac: np.ndarray, share: float = 1.0
+) -> np.ndarray:
+    """Connection rows of a sector that *turn*: on every spoke from the core's outer point
+    ``low`` to its crosscut point ``gp`` (arrays (..., P), ``apex`` broadcast against them) the
+    cubic Hermite curve that leaves ``low`` along the polar ray from the apex and arrives at
+    ``gp`` along the crosscut's outward normal there (the bisector of its two chords; at the
+    two sides the polar ray, so the side spokes stay straight, as the rungs they lie on), both
+    tangents as long as the spoke; row r crosses spoke j at curve parameter ``frac[..., r, j]``.
+    ``share`` scales the curve's departure from the straight spoke (1: the Hermite curve, 0:
+    the straight segment). Returns the rows (..., R, P).
+
+    Plain rows (:func:`_sector_mesh` without ``turned``) put every spoke on the straight
+    segment low–gp, nearly a polar ray; where the crosscut is far from round about the apex (a
+    sharp bend: the rung ends at the foot of the far wall, the wall then turns away) a polar
+    ray meets it at 60° or less. Turned spokes meet it at right angles and spread the turn
+    over the rows between (a 90° zigzag bend: connection angles [59.7°, 117.2°] plain, [63.3°,
+    117.2°] with one turned row)."""
+    ch = np.diff(gp, axis=-1)
+    ch = -1j * ch / np.abs(ch)  # outward normals of the chords (gp runs counter-clockwise)
+    d = np.empty_like(gp)
+    d[..., 1:-1] = ch[..., :-1] + ch[..., 1:]
+    d[..., 0] = gp[..., 0] - low[..., 0]  # the sides: along the rung (a polar ray)
+    d[..., -1] = gp[..., -1] - low[..., -1]
+    d = d / np.abs(d)
+    u0 = low - apex
+    u0 = u0 / np.abs(u0)
+    span = np.abs(gp - low)
+    s = np.asarray(frac, dtype=np.float64)
+    s2, s3 = s * s, s * s * s
+    low_, gp_ = low[..., None, :], gp[..., None, :]
+    t0, t1 = (span * u0)[..., None, :], (span * d)[..., None, :]
+    D = gp_ - low_
+    rows = low_ + s * D + share * ((s3 - 2 * s2 + s) * (t0 - D) + (s3 - s2) * (t1 - D))
+    # the side spokes exactly straight (their rows' ends are points of the rungs)
+    lin = low_ + s * (gp_ - low_)
+    rows[..., 0] = lin[..., 0]
+    rows[..., -1] = lin[..., -1]
+    return rows
+
+
 def _crosscut_points(apex: complex, g: np.ndarray, n_pts: int):
     """The crosscut of a sector about ``apex`` bounded by ``g``: ``g``'s chords split, widest
     polar angle first, into ``n_pts`` − 1 chords. Returns the unit direction of side 1, the
@@ -1624,37 +1698,44 @@ def _crosscut_points(apex: complex, g: np.ndarray, n_pts: int):
     return u1, theta, gp, i, j
 
 
-def _connection_angles(apex: complex, g: np.ndarray, n_pts: int) -> np.ndarray:
-    """The angles of the connection quads of :func:`_sector_mesh` (no extra rows) without
-    building the core: for ``n_pts`` = 2^k + 1 the core's outer arc is the arc of radius
-    :data:`CAP_CORE` (of the shorter side) through evenly spaced polar angles (to rounding,
-    so the angles agree with the built sector's to ~1e-12°). What the layout search checks
-    for every candidate round end and bend, thousands of times on a long ragged corridor."""
+def _connection_angles(
+    apex: complex, g: np.ndarray, n_pts: int, turned: bool = False
+) -> np.ndarray:
+    """The angles of the connection quads of :func:`_sector_mesh` (no extra rows; with
+    ``turned``, one turned row halfway) without building the core: for ``n_pts`` = 2^k + 1
+    the core's outer arc is the arc of radius :data:`CAP_CORE` (of the shorter side) through
+    evenly spaced polar angles (to rounding, so the angles agree with the built sector's to
+    ~1e-12°). What the layout search checks for every candidate round end and bend, thousands
+    of times on a long ragged corridor."""
     if (n_pts - 1) & (n_pts - 2):  # not 2^k + 1: the core's arc is not even; build it
-        return _sector_mesh(apex, g, n_pts)[4]
+        return _sector_mesh(apex, g, n_pts, int(turned), turned=float(turned))[4]
     g = np.asarray(g, dtype=np.complex128)
     if g.size > n_pts:
         raise ThinPartError("a sector of the corridor has more points than it takes")
-    a_, ok = _connection_angles_many(np.array([apex], dtype=np.complex128), g[None, :], n_pts)
+    a_, ok = _connection_angles_many(
+        np.array([apex], dtype=np.complex128), g[None, :], n_pts, turned=turned
+    )
     if not ok[0]:
         raise ThinPartError("a sector of the corridor has more points than it takes")
     return a_[0]
 
 
 def _connection_angles_many(
-    apex: np.ndarray, G: np.ndarray, n_pts: int, rows: int = 4096
+    apex: np.ndarray, G: np.ndarray, n_pts: int, rows: int = 4096, turned: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_connection_angles` of many sectors at once, number for number: ``apex`` (m,)
     and their crosscuts ``G`` (m, L), all with the same number of points ``n_pts`` = 2^k + 1.
     Returns (angles (m, n_pts − 1, 4), ok (m,)); ``ok`` is False where
     :func:`_crosscut_points` would refuse (polar angles not increasing, too many chords).
+    ``turned``: the angles of two rows of connection quads, through one turned row halfway
+    (:func:`_turned_rows`), (m, 2·(n_pts − 1), 4).
 
     The chords are split as :func:`_crosscut_points` splits them — repeatedly the chord with
     the largest polar angle per piece — by the equivalent rule that the pieces' sizes
     span/1, span/2, … taken in decreasing order (ties to the earlier chord) are the first
     ``n_pts − L`` increments."""
     m, L = G.shape
-    out = np.zeros((m, n_pts - 1, 4))
+    out = np.zeros((m, (2 if turned else 1) * (n_pts - 1), 4))
     ok = np.zeros(m, dtype=bool)
     extra = n_pts - L
     if (n_pts - 1) & (n_pts - 2) or extra < 0:
@@ -1689,7 +1770,19 @@ def _connection_angles_many(
         rho = np.minimum(abs(g[:, 0] - a[:, 0]), abs(g[:, -1] - a[:, 0]))
         arc = np.exp(1j * np.radians(theta)[:, None] * np.arange(n_pts)[None, :] / (n_pts - 1))
         low = a + (rho[:, None] * u1) * (CAP_CORE * arc)
-        c = np.stack([low[:, :-1], gp[:, :-1], gp[:, 1:], low[:, 1:]], axis=2)
+        if turned:
+            mid = _turned_rows(a, low, gp, np.full((1, n_pts), 0.5))[:, 0]
+            c = np.stack(
+                [
+                    np.concatenate([low[:, :-1], mid[:, :-1]], axis=1),
+                    np.concatenate([mid[:, :-1], gp[:, :-1]], axis=1),
+                    np.concatenate([mid[:, 1:], gp[:, 1:]], axis=1),
+                    np.concatenate([low[:, 1:], mid[:, 1:]], axis=1),
+                ],
+                axis=2,
+            )
+        else:
+            c = np.stack([low[:, :-1], gp[:, :-1], gp[:, 1:], low[:, 1:]], axis=2)
         c = c - c[:, :, :1]
         e = np.roll(c, -1, axis=2) - c
         a_ = np.degrees(np.angle(-np.roll(e, 1, axis=2) * np.conj(e)))
@@ -1705,6 +1798,7 @@ def _sector_mesh(
     rings: int = 0,
     gamma: list[int] | None = None,
     row_fracs: tuple[np.ndarray, np.ndarray] | None = None,
+    turned: float = 0.0,
 ):
     """A vertex sector about ``apex`` bounded by the crosscut ``g`` (from the end of side 1
     round to the end of side 2, counter-clockwise): ``g``'s chords split (widest polar angle
@@ -1715,7 +1809,9 @@ def _sector_mesh(
     fractions in (0, 1), one per row) the rows sit at fraction f1 on side 1 and f2 on side 2,
     and in between at the mix of the two by spoke index: every row still crosses every spoke
     once and in order, and the connection angles (returned, checked by the callers) say
-    whether the rows turned too fast. Returns (crosscut points, their coarse ids,
+    whether the rows turned too fast. ``turned`` > 0: each spoke is the curve of
+    :func:`_turned_rows` with that share instead of a straight segment (the rows cross it at
+    the same parameters; the sides stay straight). Returns (crosscut points, their coarse ids,
     all points, quads, connection angles, side-1 point indices, side-2 point indices), the
     sides from the apex outwards."""
     u1, theta, gp, i, j = _crosscut_points(apex, g, n_pts)
@@ -1735,8 +1831,12 @@ def _sector_mesh(
         frac = (1.0 - w)[None, :] * f1[:, None] + w[None, :] * f2[:, None]
     else:
         frac = np.repeat((np.arange(1, rings + 1) / (rings + 1))[:, None], n_pts, axis=1)
+    bent = _turned_rows(apex, core[outer], gp, frac, turned) if turned and rings else None
     for r in range(1, rings + 1):
-        extra.append(core[outer] + frac[r - 1] * (gp - core[outer]))
+        if bent is not None:
+            extra.append(bent[r - 1])
+        else:
+            extra.append(core[outer] + frac[r - 1] * (gp - core[outer]))
         rows.append(nc + (r - 1) * n_pts + np.arange(n_pts))
     gidx = nc + rings * n_pts + np.arange(n_pts)
     rows.append(gidx)
