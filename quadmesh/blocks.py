@@ -2162,18 +2162,27 @@ def _ladder_mesh(
     :data:`LADDER_SECONDS_PER_VERTEX` per polygon vertex, the longer; of the meshes
     whose edges are all at most :data:`LADDER_MAX_EDGE` times ``size`` the one with fewer quads
     is kept (the coarser sectors put fewer points across the corridor, but their layout may
-    need more cells).  None when no search gives such a mesh: the polygon has no ladder, or
-    the sectors' spokes would be long needles (the polygon is too wide for a ladder at this
-    size); each search's reason is then appended to ``why`` when given (a list)."""
+    need more cells). Where neither search gives one, both are repeated with sectors whose
+    connection rows turn to meet their crosscut at right angles (``turn=True`` of
+    :func:`quadmesh.thin.corridor.ladder_layout`: sharp bends of zigzags and walks). None
+    when no search gives such a mesh: the polygon has no ladder, or the sectors' spokes would
+    be long needles (the polygon is too wide for a ladder at this size); each search's reason
+    is then appended to ``why`` when given (a list)."""
     from .errors import ThinPartError
     from .thin.corridor import SECTOR_RETRY_MAX, ladder_layout, mesh_corridor
 
     chords = LADDER_SECTOR_CHORDS if len(z) <= SECTOR_RETRY_MAX else LADDER_SECTOR_CHORDS[:1]
     seconds = max(LADDER_SECONDS, LADDER_SECONDS_PER_VERTEX * len(z))
     best = None
-    for least in chords:
+    # straight connection rows first; where no ladder has them, rows that turn at sharp bends
+    tries = [(least, False) for least in chords] + [(least, True) for least in chords]
+    for least, turn in tries:
+        if turn and best is not None:
+            break
         try:
-            lad = ladder_layout(z, deadline=time.perf_counter() + seconds, sector_chords=least)
+            lad = ladder_layout(
+                z, deadline=time.perf_counter() + seconds, sector_chords=least, turn=turn
+            )
             cm = mesh_corridor(z, size=size, lay=lad)
         except ThinPartError as exc:
             if why is not None:
