@@ -2163,7 +2163,8 @@ def _ladder_mesh(
     whose edges are all at most :data:`LADDER_MAX_EDGE` times ``size`` the one with fewer quads
     is kept (the coarser sectors put fewer points across the corridor, but their layout may
     need more cells). Where neither search gives one, both are repeated with sectors whose
-    connection rows turn to meet their crosscut at right angles (``turn=True`` of
+    connection rows turn to meet their crosscut at right angles, or with round bends about
+    the centre of their outer arc (``turn=True`` of
     :func:`quadmesh.thin.corridor.ladder_layout`: sharp bends of zigzags and walks). None
     when no search gives such a mesh: the polygon has no ladder, or the sectors' spokes would
     be long needles (the polygon is too wide for a ladder at this size); each search's reason

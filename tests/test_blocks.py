@@ -555,18 +555,17 @@ def test_corridors_close_by_a_ladder_of_straight_cells(name: str, most_per_verte
     assert got["n_quads"] == res.mesh.n_quads <= most_per_vertex * len(z)
 
 
-def test_a_sharp_bend_closes_by_a_ladder_whose_sector_rows_turn(tmp_path) -> None:
-    """A pen stroke bent by 100°: no straight cuts and no ladder with straight sector rows
-    close it (it fell back to the paper's construction, 11,091 quads); the ladder is then
-    searched again with sectors whose rows turn, and closes (621 quads); the written mesh
-    passes the independent check at 1e-9°."""
+@pytest.mark.parametrize("turn", [100.0, 140.0])
+def test_a_sharp_bend_closes_by_a_ladder_whose_sector_rows_turn(turn: float, tmp_path) -> None:
+    """A pen stroke bent by 100° or 140°: no straight cuts and no ladder with straight sector
+    rows close it (it fell back to the paper's construction: 11,091 quads at 100°); the ladder
+    is then searched again with sectors whose rows turn (100°: 621 quads) or a round bend,
+    a sector about its outer arc's centre (140°); the written mesh passes the independent
+    check at 1e-9°."""
     import shapely
 
-    centre = [
-        [0.0, 0.0],
-        [4.0, 0.0],
-        [4.0 + 4.0 * np.cos(np.radians(100)), 4.0 * np.sin(np.radians(100))],
-    ]
+    a = np.radians(turn)
+    centre = [[0.0, 0.0], [4.0, 0.0], [4.0 + 4.0 * np.cos(a), 4.0 * np.sin(a)]]
     g = shapely.LineString(centre).buffer(0.5, cap_style="flat", join_style="round", quad_segs=4)
     verts = np.asarray(shapely.geometry.polygon.orient(g, 1.0).exterior.coords)[:-1]
     res = mesh_polygon(verts, MeshOptions(method="blocks"))
@@ -574,7 +573,7 @@ def test_a_sharp_bend_closes_by_a_ladder_whose_sector_rows_turn(tmp_path) -> Non
     out = tmp_path / "bend.json"
     write_mesh(out, res.mesh)
     got = independent_check(out, verts, angle_tol=1e-9)
-    assert got["n_quads"] == res.mesh.n_quads < 1000
+    assert got["n_quads"] == res.mesh.n_quads < 1500
 
 
 def test_a_ladder_is_refused_where_its_ends_would_be_needles() -> None:

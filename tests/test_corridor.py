@@ -179,6 +179,34 @@ def test_a_sharper_bend_is_a_sector_whose_rows_turn(quad_segs):
     assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
 
 
+@pytest.mark.parametrize(("turn", "quad_segs"), [(120.0, 8), (140.0, 4), (160.0, 8)])
+def test_a_hairpin_is_a_round_bend_about_its_arc(turn, quad_segs):
+    """Bends of 120°–160° (a hairpin): no sector about the inner corner has its connection
+    quads in range, straight or turning, but the outer wall is a circular arc between two
+    straight pieces: the bend is a sector about (or just beyond) the arc's centre and two
+    convex cells from the inner corner, every corner in [60°, 120°]."""
+    from quadmesh.errors import ThinPartError
+    from quadmesh.thin.corridor import _round_bend, mesh_corridor
+
+    poly = _bent_stroke(turn, quad_segs)
+    z = poly[:, 0] + 1j * poly[:, 1]
+    with pytest.raises(ThinPartError):
+        ladder_layout(z)
+    lay = ladder_layout(z, turn=True)
+    assert len(lay.sectors) == 1
+    apex, g = lay.sectors[0]
+    hub = _round_bend(lay.vertices[apex], lay.vertices[list(g)])
+    assert hub is not None
+    # the arc's centre is the stroke's centreline corner (4, 0); the hub is on the bisector,
+    # at most a fifth of the way to the inner corner beyond it
+    assert abs(hub - 4.0) <= 0.2 * abs(lay.vertices[apex] - 4.0) + 1e-12
+    cm = mesh_corridor(z, lay=lay)
+    assert np.min(np.abs(cm.vertices - hub)) < 1e-12  # the sector's apex is a mesh vertex
+    v = np.column_stack([cm.vertices.real, cm.vertices.imag])
+    lo, hi = independent_check(validate_polygon(poly).vertices, v, cm.quads, tol=1e-7)
+    assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
+
+
 def test_turned_rows_leave_the_core_radially_and_meet_the_crosscut_at_right_angles():
     """``_turned_rows``: on every spoke a curve from the core's point (leaving along the polar
     ray) to the crosscut point (arriving along the crosscut's normal, the bisector of its two

@@ -79,8 +79,9 @@ class CorridorLayout:
         open_end: True for an *arm* (``partial=True``): the ladder stops at its last rung,
             where the rest of the polygon (the body) begins.
         turn: the layout search admitted round ends and bends whose connection rows turn
-            (:func:`_turned_rows`) where plain rows leave [60°, 120°]; the mesh then builds
-            such rows where the plain ones fail.
+            (:func:`_turned_rows`) where plain rows leave [60°, 120°], and round bends
+            (:func:`_round_bend`) where turning rows do too; the mesh then builds them in the
+            same order.
     """
 
     vertices: np.ndarray
@@ -252,7 +253,8 @@ def ladder_layout(
     where the wall normal meets the corridor's own end sooner (off for a bridge, whose first
     rung must be its cut). ``turn``: round ends and bends may also be sectors whose
     connection rows turn to meet their crosscut at right angles (:func:`_turned_rows`) where
-    straight rows leave the range (sharp bends of zigzags and walks).
+    straight rows leave the range (bends of 90°–100°), and bends whose far wall is a circular
+    arc may be round bends about the arc's centre (:func:`_round_bend`: 110°–160°, hairpins).
 
     Raises:
         ThinPartError: no admissible layout exists with the sampled rung ends (the message
@@ -603,6 +605,12 @@ def ladder_layout(
                     fine = (A2.min(axis=(1, 2)) >= lo_ang) & (A2.max(axis=(1, 2)) <= 120.0 - margin)
                     keep[idx[redo[fine]]] = True
                     cost[idx[redo[fine]]] = 4.5 + np.abs(A2[fine] - 90).max(axis=(1, 2)) / 30
+                # and round bends (:func:`_round_bend`): a far wall round about another centre
+                for t in idx[~keep[idx]] if turn and nbv >= 3 else ():
+                    row = seq[np.searchsorted(idx, t)]
+                    if _round_bend(complex(zc[t]), O.pos[row], sector_chords, margin) is not None:
+                        keep[t] = True
+                        cost[t] = 4.6
                 kept = keep[idx]
                 for t, row in zip(idx[kept], O.gid[seq[kept]]):
                     gids[t] = row
@@ -938,7 +946,31 @@ def _mesh_layout(
             _sector_points(len(g) - 1, sector_chords) + (kind == "cap" and not odd)
             for _, g, kind in structs
         ]
-        base = [_sector_mesh(o, V[g], n, 0, g) for (o, g, _), n in zip(structs, n_pts)]
+        # a bend that straight or turning rows cannot make may be a round bend (as the layout
+        # search decided, in the same order)
+        centres: list[complex | None] = [None] * len(structs)
+        for i, ((o, g, kind), n) in enumerate(zip(structs, n_pts)):
+            if not (lay.turn and kind == "bend"):
+                continue
+            fits = False
+            for turned in (False, True):
+                try:
+                    a_ = _connection_angles(o, V[g], n, turned=turned)
+                except ThinPartError:
+                    break
+                if a_.min() >= 60.0 + CELL_MARGIN and a_.max() <= 120.0 - CELL_MARGIN:
+                    fits = True
+                    break
+            if not fits:
+                centres[i] = _round_bend(o, V[g], sector_chords)
+
+        def build(i: int, rows=None, turned: float = 0.0):
+            o, g, _kind = structs[i]
+            if centres[i] is not None:
+                return _round_bend_mesh(o, V[g], centres[i], sector_chords, g, rows)
+            return _sector_mesh(o, V[g], n_pts[i], 0, g, row_fracs=rows, turned=turned)
+
+        base = [build(i) for i in range(len(structs))]
         for (_o, _g, kind), m in zip(structs, base):
             if kind == "bend" and m[5].size != m[6].size:
                 raise ThinPartError("a bend of the corridor has sides of unequal refinement")
@@ -950,14 +982,15 @@ def _mesh_layout(
         plan = _plan_sector_rows(
             lay, sides, {} if transitions else {k: p.size for k, p in extra_fixed.items()}
         )
-        for (o, g, kind), rows, n in zip(structs, plan, n_pts):
-            m = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows)
+        for i, ((o, g, kind), rows) in enumerate(zip(structs, plan)):
+            m = build(i, rows)
             a_ = m[4]
-            for share in TURN_SHARES if lay.turn and rows[0].size else ():
+            turning = lay.turn and rows[0].size and centres[i] is None
+            for share in TURN_SHARES if turning else ():
                 if a_.min() >= 60.0 and a_.max() <= 120.0:
                     break
                 # a sharp bend or a ragged end: the rows turn (as the layout search checked)
-                m2 = _sector_mesh(o, V[g], n, 0, g, row_fracs=rows, turned=share)
+                m2 = build(i, rows, share)
                 if m2[4].min() >= 60.0 and m2[4].max() <= 120.0:
                     m, a_ = m2, m2[4]
             if a_.min() < 60.0 or a_.max() > 120.0:
@@ -1860,6 +1893,183 @@ def _sector_mesh(
     inv = np.empty_like(order)
     inv[order] = np.arange(order.size)
     return gp, ids, allp[order], inv[quads], a_, inv[side1], inv[side2]
+
+
+def _quad_corner_angles(q: np.ndarray) -> np.ndarray:
+    """Corner angles (degrees) of quadrilaterals ``q`` (..., 4), relative to each first vertex."""
+    c = q - q[..., :1]
+    e = np.roll(c, -1, axis=-1) - c
+    a = np.degrees(np.angle(-np.roll(e, 1, axis=-1) * np.conj(e)))
+    return np.where(a < 0, a + 360.0, a)
+
+
+#: Where the sector of a round bend sits: at the arc's centre C, else moved this share of the
+#: distance to the inner corner away from it, towards the arc (the cells' corner at the hub is
+#: 180° − τ/2 for a bend of τ at C, out of range below τ = 120°; further out it shrinks, and
+#: the arc stays round enough about the hub for its connection quads: a 120° bend of a pen
+#: stroke at −0.1: cells [67.6°, 109.1°], connection quads [67.1°, 104.6°]).
+ROUND_BEND_SHIFTS = (0.0, -0.05, -0.1, -0.15, -0.2)
+
+
+def _round_bend(
+    apex: complex, g: np.ndarray, sector_chords: int = 16, margin: float = CELL_MARGIN
+) -> complex | None:
+    """The hub of a *round bend* about ``apex`` (the centre of its arc, or a point just beyond
+    it, away from ``apex``: :data:`ROUND_BEND_SHIFTS`), or None where the bend is not one.
+
+    A round bend is a bend sector (two rungs from the reflex corner ``apex`` to the far wall,
+    ``g`` the far wall between their ends F1 … F2) whose far wall is a straight piece F1–A1, a
+    circular arc A1 … A2 (every vertex of ``g`` but its two ends on one circle, as a pen
+    stroke's round join makes it) and a straight piece A2–F2. Seen from the inner corner such a
+    wall is far from round (the arc lies up to 1.5 times as far as the feet of the rungs on
+    bends of 110°–140°), but about the arc's centre C it is exactly round: the bend is meshed
+    as the cells (apex, F1, A1, hub) and (apex, hub, A2, F2), convex with every corner in
+    [60° + margin, 120° − margin], and a vertex sector about the hub bounded by the arc
+    (:func:`_round_bend_mesh`), whose connection quads are checked as any sector's."""
+    if g.size < 5:
+        return None
+    arc = g[1:-1]
+    a, b, c = arc[0], arc[arc.size // 2], arc[-1]
+    d = 2.0 * ((b - a).conjugate() * (c - a)).imag
+    if not abs(d) > 0:
+        return None
+    # circumcentre of a, b, c
+    ba, ca = b - a, c - a
+    centre = a - 1j * (abs(ba) ** 2 * ca - abs(ca) ** 2 * ba) / d
+    r = abs(a - centre)
+    if not np.isfinite(r) or np.abs(np.abs(arc - centre) - r).max() > 1e-6 * r:
+        return None
+    for shift in ROUND_BEND_SHIFTS:
+        hub = centre + shift * (apex - centre)
+        if _round_bend_fits(apex, g, hub, sector_chords, margin):
+            return complex(hub)
+    return None
+
+
+def _round_bend_fits(
+    apex: complex, g: np.ndarray, hub: complex, sector_chords: int, margin: float
+) -> bool:
+    """Whether the cells (apex, F1, A1, hub), (apex, hub, A2, F2) are convex with corners in
+    [60° + margin, 120° − margin] and the vertex sector about ``hub`` bounded by the arc
+    A1 … A2 has its angle and its connection quads in range."""
+    arc = g[1:-1]
+    quads = np.array([[apex, g[0], g[1], hub], [apex, hub, g[-2], g[-1]]])
+    cc = quads - quads[:, :1]
+    e = np.roll(cc, -1, axis=1) - cc
+    if not np.all((np.conj(e) * np.roll(e, -1, axis=1)).imag > 0):
+        return False
+    ang = _quad_corner_angles(quads)
+    if ang.min() < 60.0 + margin or ang.max() > 120.0 - margin:
+        return False
+    th = float(np.degrees(np.angle((arc[-1] - hub) / (arc[0] - hub))))
+    th = th if th > 0 else th + 360.0
+    if not (60.0 + margin <= th <= 120.0 - margin or 120.0 + margin <= th <= 240.0 - margin):
+        return False
+    try:
+        a_ = _connection_angles(hub, arc, _sector_points(arc.size - 1, sector_chords))
+    except ThinPartError:
+        return False
+    return bool(a_.min() >= 60.0 + margin and a_.max() <= 120.0 - margin)
+
+
+def _round_bend_mesh(
+    apex: complex,
+    g: np.ndarray,
+    centre: complex,
+    sector_chords: int,
+    gamma: list[int] | None = None,
+    row_fracs: tuple[np.ndarray, np.ndarray] | None = None,
+):
+    """The mesh of a round bend (:func:`_round_bend`, its hub ``centre``) in the form
+    :func:`_sector_mesh` returns for a bend sector about ``apex``: a vertex sector about
+    ``centre`` bounded by the arc (with ``row_fracs`` its connection rows), and the cells
+    (apex, F1, A1, C), (apex, C, A2, F2) as bilinear grids whose lines across continue the
+    sector's sides (each rung from the apex carries the points of the sector's side at the
+    same fractions) and whose lines along run from the apex–C segment to the straight walls
+    F1–A1 and A2–F2. Returns (crosscut points:
+    F1, the wall points to A1, the arc's points, the wall points from A2, F2; their coarse ids,
+    −1 for new points; all points; quads; the angles of every quad but the sector's core;
+    side-1 point indices from the apex to F1; side-2 point indices from the apex to F2)."""
+    arc = np.asarray(g[1:-1], dtype=np.complex128)
+    n_c = _sector_points(arc.size - 1, sector_chords)
+    arc_ids = None if gamma is None else list(gamma[1:-1])
+    gp_c, ids_c, allp_c, q_c, a_c, s1_c, s2_c = _sector_mesh(
+        centre, arc, n_c, 0, arc_ids, row_fracs=row_fracs
+    )
+    pts = [allp_c]
+    count = allp_c.size
+
+    def new(z: np.ndarray) -> np.ndarray:
+        nonlocal count
+        pts.append(np.asarray(z, dtype=np.complex128))
+        ids = count + np.arange(len(z))
+        count += len(z)
+        return ids
+
+    a1, a2, f1, f2 = arc[0], arc[-1], complex(g[0]), complex(g[-1])
+    side_len = max(abs(a1 - centre), abs(a2 - centre))
+    n_side = max(len(s1_c), len(s2_c)) - 1
+    m_t = max(1, round(abs(apex - centre) / (side_len / max(n_side, 1))))
+    t = np.arange(1, m_t) / m_t
+    mid_rc = new(apex + t * (centre - apex))  # the apex–C segment, shared by both cells
+    apex_id = new(np.array([apex]))[0]
+    c_id = int(s1_c[0])  # the sector's apex (its sides start there)
+    line_rc = np.r_[apex_id, mid_rc, c_id]  # t = 0 … 1
+    quads = [q_c]
+    angles = [a_c]
+    sides = []
+    walls = []
+    for s_c, far, a_end in ((s1_c, f1, a1), (s2_c, f2, a2)):
+        p = np.abs(allp_c[s_c] - centre) / abs(a_end - centre)  # the sector side's fractions
+        p[0], p[-1] = 0.0, 1.0
+        # grid[t_i, s_j]: t along apex → C (rows 0 … m_t), s across from that line to the wall
+        grid = np.empty((m_t + 1, p.size), dtype=np.int64)
+        grid[:, 0] = line_rc
+        grid[-1, :] = s_c
+        tt = np.arange(m_t + 1)[:, None] / m_t
+        ss = p[None, :]
+        xy = (
+            (1 - ss) * (1 - tt) * apex
+            + ss * (1 - tt) * far
+            + ss * tt * a_end
+            + (1 - ss) * tt * centre
+        )
+        inner = new(xy[:-1, 1:].ravel()).reshape(m_t, p.size - 1)
+        grid[:-1, 1:] = inner
+        sides.append(grid[0, :])  # the rung: apex … far end
+        walls.append(grid[:, -1])  # the wall: far end (t = 0) … A (t = 1)
+        q = np.stack([grid[:-1, :-1], grid[:-1, 1:], grid[1:, 1:], grid[1:, :-1]], axis=-1).reshape(
+            -1, 4
+        )
+        quads.append(q)
+    allp = np.concatenate(pts)
+    conn = np.concatenate(quads[1:])
+    # counter-clockwise: flip the cells whose quads come out clockwise
+    cz = allp[conn] - allp[conn][:, :1]
+    area = 0.5 * np.sum((np.conj(cz) * np.roll(cz, -1, axis=1)).imag, axis=1)
+    conn = np.where((area < 0)[:, None], conn[:, ::-1], conn)
+    angles.append(_quad_corner_angles(allp[conn]))
+    all_quads = np.concatenate([q_c, conn])
+    a_all = np.concatenate([a_c, angles[-1]])
+    # the crosscut: F1, wall to A1, the arc (the sector's crosscut), wall from A2, F2
+    w1, w2 = walls
+    cross = np.r_[w1[:-1], np.arange(gp_c.size), w2[:-1][::-1]]
+    cross_ids = None
+    if gamma is not None:
+        mid = [-1] * (w1.size - 2)
+        cross_ids = [int(gamma[0]), *mid, *ids_c, *mid[: w2.size - 2], int(gamma[-1])]
+    order = np.r_[cross, np.setdiff1d(np.arange(allp.size), cross)]
+    inv = np.empty_like(order)
+    inv[order] = np.arange(order.size)
+    return (
+        allp[cross],
+        cross_ids,
+        allp[order],
+        inv[all_quads],
+        a_all,
+        inv[sides[0]],
+        inv[sides[1]],
+    )
 
 
 def _param_list(t: np.ndarray) -> np.ndarray:
