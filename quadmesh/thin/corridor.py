@@ -46,6 +46,7 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from ..errors import ThinPartError
+from ..geometry import quad_angles_deg
 from ..polygon import interior_angles
 from ..progress import checkpoint
 from ..transition import TransitionError, transition_cascade
@@ -1895,20 +1896,15 @@ def _sector_mesh(
     return gp, ids, allp[order], inv[quads], a_, inv[side1], inv[side2]
 
 
-def _quad_corner_angles(q: np.ndarray) -> np.ndarray:
-    """Corner angles (degrees) of quadrilaterals ``q`` (..., 4), relative to each first vertex."""
-    c = q - q[..., :1]
-    e = np.roll(c, -1, axis=-1) - c
-    a = np.degrees(np.angle(-np.roll(e, 1, axis=-1) * np.conj(e)))
-    return np.where(a < 0, a + 360.0, a)
-
-
 #: Where the sector of a round bend sits: at the arc's centre C, else moved this share of the
 #: distance to the inner corner away from it, towards the arc (the cells' corner at the hub is
 #: 180° − τ/2 for a bend of τ at C, out of range below τ = 120°; further out it shrinks, and
 #: the arc stays round enough about the hub for its connection quads: a 120° bend of a pen
 #: stroke at −0.1: cells [67.6°, 109.1°], connection quads [67.1°, 104.6°]).
 ROUND_BEND_SHIFTS = (0.0, -0.05, -0.1, -0.15, -0.2)
+
+#: The two cells of a round bend as indices into (apex, F1, A1, hub, A2, F2).
+_ROUND_BEND_CELLS = np.array([[0, 1, 2, 3], [0, 3, 4, 5]])
 
 
 def _round_bend(
@@ -1953,12 +1949,8 @@ def _round_bend_fits(
     [60° + margin, 120° − margin] and the vertex sector about ``hub`` bounded by the arc
     A1 … A2 has its angle and its connection quads in range."""
     arc = g[1:-1]
-    quads = np.array([[apex, g[0], g[1], hub], [apex, hub, g[-2], g[-1]]])
-    cc = quads - quads[:, :1]
-    e = np.roll(cc, -1, axis=1) - cc
-    if not np.all((np.conj(e) * np.roll(e, -1, axis=1)).imag > 0):
-        return False
-    ang = _quad_corner_angles(quads)
+    # (a clockwise or reflex corner reads above 180°: convex and counter-clockwise if in range)
+    ang = quad_angles_deg(np.array([apex, g[0], g[1], hub, g[-2], g[-1]]), _ROUND_BEND_CELLS)
     if ang.min() < 60.0 + margin or ang.max() > 120.0 - margin:
         return False
     th = float(np.degrees(np.angle((arc[-1] - hub) / (arc[0] - hub))))
@@ -2048,7 +2040,7 @@ def _round_bend_mesh(
     cz = allp[conn] - allp[conn][:, :1]
     area = 0.5 * np.sum((np.conj(cz) * np.roll(cz, -1, axis=1)).imag, axis=1)
     conn = np.where((area < 0)[:, None], conn[:, ::-1], conn)
-    angles.append(_quad_corner_angles(allp[conn]))
+    angles.append(quad_angles_deg(allp, conn))
     all_quads = np.concatenate([q_c, conn])
     a_all = np.concatenate([a_c, angles[-1]])
     # the crosscut: F1, wall to A1, the arc (the sector's crosscut), wall from A2, F2
