@@ -1687,8 +1687,8 @@ def _turned_rows(
     segment low–gp, nearly a polar ray; where the crosscut is far from round about the apex (a
     sharp bend: the rung ends at the foot of the far wall, the wall then turns away) a polar
     ray meets it at 60° or less. Turned spokes meet it at right angles and spread the turn
-    over the rows between (a 90° zigzag bend: connection angles [59.7°, 117.2°] plain, [63.3°,
-    117.2°] with one turned row)."""
+    over the rows between (the 94° first bend of the pen stroke zigzag_1: connection angles
+    [59.7°, 117.2°] plain, [63.3°, 117.2°] with one turned row)."""
     ch = np.diff(gp, axis=-1)
     ch = -1j * ch / np.abs(ch)  # outward normals of the chords (gp runs counter-clockwise)
     d = np.empty_like(gp)
