@@ -207,6 +207,39 @@ def test_a_hairpin_is_a_round_bend_about_its_arc(turn, quad_segs):
     assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
 
 
+def test_a_round_bends_cells_are_cut_along_by_the_size_not_by_its_rows():
+    """The two cells of a round bend carry the sector's side points (its core and every
+    connection row the corridor's neighbours fix) across to the rungs; along the inner corner's
+    line to the hub they are cut in segments of at most the size, as runs are, not as finely as
+    those rows: with 30 rows a 140° hairpin's bend has a few hundred quads instead of thousands
+    (a pen stroke's zigzag by blocks: 25,996 → 5,164 quads), every angle in range."""
+    from quadmesh.geometry import quad_angles_deg
+    from quadmesh.thin.corridor import _round_bend, _round_bend_mesh
+
+    poly = _bent_stroke(140.0, 8)
+    z = poly[:, 0] + 1j * poly[:, 1]
+    lay = ladder_layout(z, turn=True)
+    apex, g = lay.sectors[0]
+    o, gv = lay.vertices[apex], lay.vertices[list(g)]
+    hub = _round_bend(o, gv)
+    f = np.linspace(0.0, 1.0, 32)[1:-1] ** 2  # 30 rows, graded towards the core
+    size = 0.25
+    fine = _round_bend_mesh(o, gv, hub, 16, None, (f, f))
+    cut = _round_bend_mesh(o, gv, hub, 16, None, (f, f), size)
+    for _gp, _ids, pts, quads, *_ in (fine, cut):
+        a = quad_angles_deg(pts, quads)
+        assert 60.0 - 1e-9 <= a.min() and a.max() <= 120.0 + 1e-9
+    # the inner corner's line to the hub: in segments of at most the size
+    pts = cut[2]
+    on = pts[np.abs(((pts - o) / (hub - o)).imag) * abs(hub - o) < 1e-12]
+    t = np.sort(((on - o) / (hub - o)).real)
+    t = t[(t > -1e-12) & (t < 1 + 1e-12)]
+    steps = np.diff(t) * abs(hub - o)
+    assert steps.max() <= size + 1e-12
+    assert t.size - 1 == int(np.ceil(abs(hub - o) / size))
+    assert len(cut[3]) < 0.5 * len(fine[3])
+
+
 def test_bent_strokes_of_any_turn_mesh_with_turning_rows_or_round_bends():
     """12 random pen strokes bent by 60°–170° (round joins of 2–9 segments, flat or round
     ends, widths 0.3–1.5): every ladder that is found, plain or with ``turn=True``, passes the

@@ -36,6 +36,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import math
 import time
 from dataclasses import dataclass
 
@@ -968,7 +969,7 @@ def _mesh_layout(
         def build(i: int, rows=None, turned: float = 0.0):
             o, g, _kind = structs[i]
             if centres[i] is not None:
-                return _round_bend_mesh(o, V[g], centres[i], sector_chords, g, rows)
+                return _round_bend_mesh(o, V[g], centres[i], sector_chords, g, rows, size)
             return _sector_mesh(o, V[g], n_pts[i], 0, g, row_fracs=rows, turned=turned)
 
         base = [build(i) for i in range(len(structs))]
@@ -1971,6 +1972,7 @@ def _round_bend_mesh(
     sector_chords: int,
     gamma: list[int] | None = None,
     row_fracs: tuple[np.ndarray, np.ndarray] | None = None,
+    size: float | None = None,
 ):
     """The mesh of a round bend (:func:`_round_bend`, its hub ``centre``) in the form
     :func:`_sector_mesh` returns for a bend sector about ``apex``: a vertex sector about
@@ -1978,7 +1980,9 @@ def _round_bend_mesh(
     (apex, F1, A1, C), (apex, C, A2, F2) as bilinear grids whose lines across continue the
     sector's sides (each rung from the apex carries the points of the sector's side at the
     same fractions) and whose lines along run from the apex–C segment to the straight walls
-    F1–A1 and A2–F2. Returns (crosscut points:
+    F1–A1 and A2–F2, in segments of about the spacing of the sector's side points or, with
+    ``size``, of at most ``size`` (as the corridor's runs are cut along; the cells are bilinear
+    grids, so any count keeps their angles). Returns (crosscut points:
     F1, the wall points to A1, the arc's points, the wall points from A2, F2; their coarse ids,
     −1 for new points; all points; quads; the angles of every quad but the sector's core;
     side-1 point indices from the apex to F1; side-2 point indices from the apex to F2)."""
@@ -2001,7 +2005,12 @@ def _round_bend_mesh(
     a1, a2, f1, f2 = arc[0], arc[-1], complex(g[0]), complex(g[-1])
     side_len = max(abs(a1 - centre), abs(a2 - centre))
     n_side = max(len(s1_c), len(s2_c)) - 1
-    m_t = max(1, round(abs(apex - centre) / (side_len / max(n_side, 1))))
+    if size is None:
+        m_t = max(1, round(abs(apex - centre) / (side_len / max(n_side, 1))))
+    else:
+        # not the side points' spacing: their rows may be many (a corridor's neighbours fix
+        # them), and each segment here is a line across both cells
+        m_t = max(1, math.ceil(abs(apex - centre) / size))
     t = np.arange(1, m_t) / m_t
     mid_rc = new(apex + t * (centre - apex))  # the apex–C segment, shared by both cells
     apex_id = new(np.array([apex]))[0]
