@@ -207,6 +207,41 @@ def test_a_hairpin_is_a_round_bend_about_its_arc(turn, quad_segs):
     assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
 
 
+@pytest.mark.parametrize("turn", [110.0, 130.0, 150.0])
+def test_a_hand_drawn_hairpin_is_a_round_bend_about_a_hub_off_any_circle(turn):
+    """A hairpin whose round join is drawn by hand (every vertex of the arc 4 % of its radius
+    nearer or farther, so no circle holds them): the hub is found off the arc's centre (about
+    its least-squares circle, or on the line from the inner corner to the arc), the ladder
+    closes and passes the independent check. Before, such bends had no ladder: 0 of 45 such
+    strokes (turns 110°, 130°, 150°; joins of 3, 5, 8 segments; 5 seeds), now 44."""
+    from quadmesh.errors import ThinPartError
+    from quadmesh.thin.corridor import _round_bend, mesh_corridor
+
+    rng = np.random.default_rng(int(turn))
+    for _ in range(2):
+        poly = _bent_stroke(turn, 5)
+        z = poly[:, 0] + 1j * poly[:, 1]
+        on = np.abs(np.abs(z - 4.0) - 0.5) < 1e-9  # the join's arc (and its two tangent points)
+        z[on] = 4.0 + (z[on] - 4.0) * (1.0 + 0.04 * rng.uniform(-1.0, 1.0, on.sum()))
+        with pytest.raises(ThinPartError):
+            ladder_layout(z)
+        lay = ladder_layout(z, turn=True)
+        bends = [
+            h
+            for a, g in lay.sectors
+            if (h := _round_bend(lay.vertices[a], lay.vertices[list(g)])) is not None
+        ]
+        assert bends
+        # no circle holds the arc: the vertices' distances from the hub differ by percents
+        r = np.abs(z[on] - bends[0])
+        assert r.max() - r.min() > 0.01 * r.mean()
+        cm = mesh_corridor(z, lay=lay)
+        poly_n = np.column_stack([z.real, z.imag])
+        v = np.column_stack([cm.vertices.real, cm.vertices.imag])
+        lo, hi = independent_check(validate_polygon(poly_n).vertices, v, cm.quads, tol=1e-7)
+        assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
+
+
 def test_a_round_bends_cells_are_cut_along_by_the_size_not_by_its_rows():
     """The two cells of a round bend carry the sector's side points (its core and every
     connection row the corridor's neighbours fix) across to the rungs; along the inner corner's

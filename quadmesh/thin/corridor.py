@@ -1912,7 +1912,9 @@ def _round_bend(
     apex: complex, g: np.ndarray, sector_chords: int = 16, margin: float = CELL_MARGIN
 ) -> complex | None:
     """The hub of a *round bend* about ``apex`` (the centre of its arc, or a point just beyond
-    it, away from ``apex``: :data:`ROUND_BEND_SHIFTS`), or None where the bend is not one.
+    it, away from ``apex``: :data:`ROUND_BEND_SHIFTS`; where none of these fits, or the arc's
+    vertices are not on one circle — a hand-drawn arc, a coarse one — the candidates of
+    :func:`_noisy_arc_hubs`), or None where the bend is not one.
 
     A round bend is a bend sector (two rungs from the reflex corner ``apex`` to the far wall,
     ``g`` the far wall between their ends F1 … F2) whose far wall is a straight piece F1–A1, a
@@ -1928,19 +1930,41 @@ def _round_bend(
     arc = g[1:-1]
     a, b, c = arc[0], arc[arc.size // 2], arc[-1]
     d = 2.0 * ((b - a).conjugate() * (c - a)).imag
-    if not abs(d) > 0:
-        return None
-    # circumcentre of a, b, c
-    ba, ca = b - a, c - a
-    centre = a - 1j * (abs(ba) ** 2 * ca - abs(ca) ** 2 * ba) / d
-    r = abs(a - centre)
-    if not np.isfinite(r) or np.abs(np.abs(arc - centre) - r).max() > 1e-6 * r:
-        return None
-    for shift in ROUND_BEND_SHIFTS:
-        hub = centre + shift * (apex - centre)
-        if _round_bend_fits(apex, g, hub, sector_chords, margin):
+    hubs = []
+    if abs(d) > 0:
+        # circumcentre of a, b, c
+        ba, ca = b - a, c - a
+        centre = a - 1j * (abs(ba) ** 2 * ca - abs(ca) ** 2 * ba) / d
+        r = abs(a - centre)
+        if np.isfinite(r) and np.abs(np.abs(arc - centre) - r).max() <= 1e-6 * r:
+            hubs = [centre + shift * (apex - centre) for shift in ROUND_BEND_SHIFTS]
+    # three points are always on a circle: a coarse arc may still need a hub off its centre
+    for hub in hubs + _noisy_arc_hubs(apex, arc):
+        if np.isfinite(hub) and _round_bend_fits(apex, g, hub, sector_chords, margin):
             return complex(hub)
     return None
+
+
+#: Where the hub of a round bend whose far wall is not one circle (a hand-drawn arc, a coarse
+#: one) is looked for, besides about the arc's least-squares circle: these fractions of the
+#: way from the inner corner to the arc's middle vertex.
+NOISY_HUB_FRACTIONS = tuple(np.linspace(0.3, 0.85, 12).tolist())
+
+
+def _noisy_arc_hubs(apex: complex, arc: np.ndarray) -> list[complex]:
+    """Candidate hubs of a round bend whose arc ``arc`` (its vertices, at least three) is not
+    exactly circular: the centre of the least-squares circle through them (Kåsa's fit) moved
+    by :data:`ROUND_BEND_SHIFTS` as an exact centre is, then the points
+    :data:`NOISY_HUB_FRACTIONS` of the way from ``apex`` to the arc's middle vertex. Each is
+    only a candidate: :func:`_round_bend_fits` decides (cells and connection quads in range),
+    so a poor fit costs a try, never a bad angle."""
+    A = np.column_stack([arc.real, arc.imag, np.ones(arc.size)])
+    sol = np.linalg.lstsq(A, np.abs(arc) ** 2, rcond=None)[0]
+    centre = 0.5 * complex(sol[0], sol[1])
+    mid = arc[arc.size // 2]
+    return [centre + shift * (apex - centre) for shift in ROUND_BEND_SHIFTS] + [
+        apex + f * (mid - apex) for f in NOISY_HUB_FRACTIONS
+    ]
 
 
 def _round_bend_fits(
