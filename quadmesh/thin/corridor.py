@@ -849,7 +849,12 @@ def _cell_cost(q0, q1, q2, q3, margin):
 
 
 def mesh_corridor(
-    z: np.ndarray, *, across: int = 4, size: float | None = None, lay: CorridorLayout | None = None
+    z: np.ndarray,
+    *,
+    across: int = 4,
+    size: float | None = None,
+    lay: CorridorLayout | None = None,
+    turn: bool = False,
 ) -> CorridorMesh:
     """Quad mesh of a corridor polygon: its ladder layout (:func:`ladder_layout`, or ``lay``
     when given), its round ends and bends meshed as vertex sectors, and its cells refined by
@@ -864,6 +869,8 @@ def mesh_corridor(
     across the corridor: 30–45 % fewer quads on buffered walks), then of 16 where a round end
     or a bend needs them (:data:`SECTOR_CHORDS`); polygons of more than
     :data:`SECTOR_RETRY_MAX` vertices, whose layout search is long, get 16 at once.
+    ``turn``: the layouts are searched for with sectors whose rows turn and with round bends
+    (:func:`ladder_layout`).
 
     Raises:
         ThinPartError: no ladder layout exists, or a sector or morphing run fails its check.
@@ -873,7 +880,7 @@ def mesh_corridor(
     error: ThinPartError | None = None
     for least in tries:
         try:
-            lay_ = ladder_layout(z, sector_chords=least) if lay is None else lay
+            lay_ = ladder_layout(z, sector_chords=least, turn=turn) if lay is None else lay
             return _mesh_layout(lay_, z, across, {}, size, least)
         except ThinPartError as exc:
             error = exc
@@ -2696,7 +2703,9 @@ def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
     """The corridor mesh of a polygon that the decomposition leaves as one crowded thick piece.
 
     Returns ``(mesh, "")`` when the polygon is one thick piece without channels whose estimated
-    smallest prevertex gap is below :data:`CORRIDOR_GAP` and a ladder layout exists; otherwise
+    smallest prevertex gap is below :data:`CORRIDOR_GAP` and a ladder layout exists (with
+    straight connection rows, else — on polygons of at most :data:`SECTOR_RETRY_MAX` vertices —
+    with rows that turn and round bends: ``mesh_corridor(turn=True)``); otherwise
     ``(None, reason)`` with the reason the corridor route was not taken ("" when the polygon is
     not a crowded single piece).
     """
@@ -2716,4 +2725,12 @@ def whole_corridor(dec, *, across: int = 4) -> tuple[CorridorMesh | None, str]:
     try:
         return mesh_corridor(z, across=across), ""
     except ThinPartError as exc:
-        return None, str(exc.args[0]) if exc.args else type(exc).__name__
+        reason = str(exc.args[0]) if exc.args else type(exc).__name__
+    if z.size > SECTOR_RETRY_MAX:
+        return None, reason
+    # sharp bends (zigzags, walks): sectors whose rows turn, round bends about their arcs;
+    # where that fails too the plain reason stands and arms, bridges and knots follow
+    try:
+        return mesh_corridor(z, across=across, turn=True), ""
+    except ThinPartError:
+        return None, reason
