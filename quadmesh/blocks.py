@@ -271,24 +271,34 @@ def _segments(rays: list[_Ray]) -> tuple[list[_Ray], NDArray[np.int64]]:
 def _first_hit(z: NDArray[np.complex128], i: int, d: complex) -> tuple[float, int, float] | None:
     """First boundary point on the ray z[i] + t d (t > 0), skipping the two edges at z[i]:
     ``(t, edge, u)`` with the point ``z[e] + u (z[e+1] - z[e])``; None if it leaves (never)."""
+    t, j, u = _first_hits(z, i, np.array([d], dtype=np.complex128))
+    if j[0] < 0:
+        return None
+    return float(t[0]), int(j[0]), float(u[0])
+
+
+def _first_hits(
+    z: NDArray[np.complex128], i: int, d: NDArray[np.complex128]
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """:func:`_first_hit` for the rays z[i] + t d[k] (unit directions ``d``, (m,)) at once, the
+    same arithmetic element by element: arrays ``(t, edge, u)``, ``edge`` −1 where a ray meets
+    no edge."""
     n = len(z)
-    a = z
-    b = np.roll(z, -1)
-    e = b - a
-    p = z[i]
+    e = (np.roll(z, -1) - z)[None, :]
+    w = (z - z[i])[None, :]
+    dd = np.asarray(d, dtype=np.complex128)[:, None]
     # solve p + t d = a + u e:  t d - u e = a - p
-    den = (d.conjugate() * e).imag  # cross(d, e)
-    w = a - p
+    den = (dd.conjugate() * e).imag  # cross(d, e)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (w.conjugate() * e).imag / den  # cross(w, e) / cross(d, e)
-        u = (w.conjugate() * d).imag / den  # cross(w, d) / cross(d, e)
+        u = (w.conjugate() * dd).imag / den  # cross(w, d) / cross(d, e)
     ok = (np.abs(den) > 1e-15 * np.abs(e)) & (t > 0) & (u >= 0) & (u <= 1)
-    ok[i] = False
-    ok[(i - 1) % n] = False
-    if not np.any(ok):
-        return None
-    j = int(np.argmin(np.where(ok, t, np.inf)))
-    return float(t[j]), j, float(u[j])
+    ok[:, i] = False
+    ok[:, (i - 1) % n] = False
+    j = np.argmin(np.where(ok, t, np.inf), axis=1)
+    rows = np.arange(len(j))
+    hit = ok[rows, j]
+    return t[rows, j], np.where(hit, j, -1), u[rows, j]
 
 
 def _windows(theta: float, exact: bool = False) -> list[tuple[float, float]]:
@@ -348,29 +358,39 @@ def _candidates(
                 continue
             for phi in np.linspace(a, b, RAY_SAMPLES if b > a else 1):
                 dirs.append((float(phi), k))
-        # joins: other obtuse corners seen inside a window
+        # joins: other obtuse corners seen inside a window (the rays' first hits at once)
+        joins = []
         for j in range(n):
             if j == i or not wins[j]:
                 continue
             d = z[j] - z[i]
-            phi = phi_at(i, d)
-            k = slot_of(i, phi)
-            if k is None:
+            k = slot_of(i, phi_at(i, d))
+            if k is not None:
+                joins.append((j, d, k))
+        if joins:
+            jd = np.array([d / abs(d) for _, d, _ in joins], dtype=np.complex128)
+            t_hit, e_hit, _u = _first_hits(z, i, jd)
+            for (j, d, k), th, eh in zip(joins, t_hit.tolist(), e_hit.tolist()):
+                if eh < 0 or th < abs(d) * (1 - 1e-9) - 1e-12 * diam:
+                    continue  # something is in the way
+                kj = slot_of(j, phi_at(j, -d))
+                if kj is None:
+                    continue
+                cost = 0.5 + 0.2 * abs(d) / diam
+                rays.append(_Ray(i, d / abs(d), z[j], -1, 0.0, j, [(i, k), (j, kj)], cost))
+        dvec = np.array(
+            [
+                u0 * complex(math.cos(math.radians(phi)), math.sin(math.radians(phi)))
+                for phi, _ in dirs
+            ],
+            dtype=np.complex128,
+        )
+        t_all, j_all, u_all = _first_hits(z, i, dvec)
+        for (phi, k), d, t, j, u in zip(
+            dirs, dvec.tolist(), t_all.tolist(), j_all.tolist(), u_all.tolist()
+        ):
+            if j < 0:
                 continue
-            hit = _first_hit(z, i, d / abs(d))
-            if hit is None or hit[0] < abs(d) * (1 - 1e-9) - 1e-12 * diam:
-                continue  # something is in the way
-            kj = slot_of(j, phi_at(j, -d))
-            if kj is None:
-                continue
-            cost = 0.5 + 0.2 * abs(d) / diam
-            rays.append(_Ray(i, d / abs(d), z[j], -1, 0.0, j, [(i, k), (j, kj)], cost))
-        for phi, k in dirs:
-            d = u0 * complex(math.cos(math.radians(phi)), math.sin(math.radians(phi)))
-            hit = _first_hit(z, i, d)
-            if hit is None:
-                continue
-            t, j, u = hit
             ej = e_out[j]
             end = z[j] + u * ej
             alpha = _line_angle(d, ej)
