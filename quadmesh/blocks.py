@@ -2185,7 +2185,9 @@ def _ladder_mesh(
     need more cells). Where neither search gives one, both are repeated with sectors whose
     connection rows turn to meet their crosscut at right angles, or with round bends about
     the centre of their outer arc (``turn=True`` of
-    :func:`quadmesh.thin.corridor.ladder_layout`: sharp bends of zigzags and walks). None
+    :func:`quadmesh.thin.corridor.ladder_layout`: sharp bends of zigzags and walks), except
+    where the plain search ran out of its time (the search with turning rows does all it did,
+    and more: a round outline of a thousand vertices that is no corridor at all). None
     when no search gives such a mesh: the polygon has no ladder, or the sectors' spokes would
     be long needles (the polygon is too wide for a ladder at this size); each search's reason
     is then appended to ``why`` when given (a list)."""
@@ -2197,15 +2199,18 @@ def _ladder_mesh(
     best = None
     # straight connection rows first; where no ladder has them, rows that turn at sharp bends
     tries = [(least, False) for least in chords] + [(least, True) for least in chords]
+    timed_out: set[int] = set()
     for least, turn in tries:
-        if turn and best is not None:
-            break
+        if turn and (best is not None or least in timed_out):
+            # (a search with turning rows does all the plain one did, and more)
+            continue
+        deadline = time.perf_counter() + seconds
         try:
-            lad = ladder_layout(
-                z, deadline=time.perf_counter() + seconds, sector_chords=least, turn=turn
-            )
+            lad = ladder_layout(z, deadline=deadline, sector_chords=least, turn=turn)
             cm = mesh_corridor(z, size=size, lay=lad)
         except ThinPartError as exc:
+            if time.perf_counter() > deadline:
+                timed_out.add(least)
             if why is not None:
                 why.append(str(exc.args[0]) if exc.args else type(exc).__name__)
             continue

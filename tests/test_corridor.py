@@ -242,6 +242,36 @@ def test_a_hand_drawn_hairpin_is_a_round_bend_about_a_hub_off_any_circle(turn):
         assert 60 - 1e-7 <= lo and hi <= 120 + 1e-7
 
 
+def test_the_bend_search_stops_at_its_deadline_between_batches(monkeypatch):
+    """The connection quads of candidate bends are checked in batches (one per number of far
+    wall vertices between the rungs); on a round outline that is no corridor at all the
+    batches are many and large (noisy_circle_1000: 103 batches, 49 s). The deadline is
+    checked before every batch: here the first batch takes longer than the time allowed, and
+    the search stops right after it instead of going through all of them (61 on the island
+    outline)."""
+    import sys
+    import time
+
+    from quadmesh.errors import ThinPartError
+    from quadmesh.thin import corridor
+
+    z = load_example("island")
+    z = z[:, 0] + 1j * z[:, 1] if np.ndim(z) == 2 else np.asarray(z)
+    calls = []
+    original = corridor._connection_angles_many
+
+    def slow(*args, **kwargs):
+        if sys._getframe(1).f_code.co_name == "ladder_layout":  # a batch of bends (not a cap)
+            calls.append(1)
+            time.sleep(1.0)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(corridor, "_connection_angles_many", slow)
+    with pytest.raises(ThinPartError, match="time allowed"):
+        ladder_layout(z, deadline=time.perf_counter() + 0.5)
+    assert len(calls) == 1
+
+
 def test_a_round_bends_cells_are_cut_along_by_the_size_not_by_its_rows():
     """The two cells of a round bend carry the sector's side points (its core and every
     connection row the corridor's neighbours fix) across to the rungs; along the inner corner's

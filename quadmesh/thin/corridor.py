@@ -587,6 +587,11 @@ def ladder_layout(
         gids: list[np.ndarray | None] = [None] * on.size
         for on_l, O in ((True, R), (False, L)):
             for nbv in np.unique(nb[on == on_l]):
+                checkpoint()
+                if deadline is not None and time.perf_counter() > deadline:
+                    # (long far walls make big batches: a round outline that is no corridor
+                    # at all has bends with hundreds of vertices between their rungs)
+                    raise ThinPartError("no ladder of straight cells was found in the time allowed")
                 idx = np.flatnonzero((on == on_l) & (nb == nbv))
                 mids = O_vertices[on_l][O.vrank[o0[idx]][:, None] + np.arange(nbv)[None, :]]
                 if on_l:
