@@ -1296,6 +1296,7 @@ def _split_cells(
     own_mask: NDArray[np.bool_],
     margin: float = 0.5 * LAYOUT_MARGIN,
     separate: bool = False,
+    sample: bool = False,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], list[int]]:
     """Split every face into quads about a centre point, one point on every face side (shared
     by the two faces on it): ``(points, cells, bad_faces)``.  Quadrilateral faces start from
@@ -1380,8 +1381,89 @@ def _split_cells(
             t, C = _centre_opt(P, R, cell_face_a, faces, group, t, C, slack, positions)
         X = positions(t, C)
         sl = slack(X)
+        if sample and np.any(sl < 0):
+            # SLSQP stalls from the centroids of skewed faces (a pentagon with one side 1/37
+            # of another): a sampled search over centres and side points, then SLSQP again
+            bad_faces = np.unique(cell_face_a[np.any(sl < 0, axis=1)])
+            t2, C2 = _sampled_split(P, S, R, need, corner_is_tip, cell_face_a, bad_faces, t, C)
+            t2, C2 = _centre_opt(P, R, cell_face_a, faces, bad_faces, t2, C2, slack, positions)
+            sl2 = slack(positions(t2, C2))
+            if sl2.min() > sl.min():
+                t, C, sl = t2, C2, sl2
+                X = positions(t, C)
     still = np.any(sl < 0, axis=1)
     return X, Q, sorted(set(cell_face_a[still].tolist()))
+
+
+#: candidates per face centre and per side point in each round of :func:`_sampled_split`
+SPLIT_SAMPLES = 256
+#: rounds of :func:`_sampled_split` (centres, then side points, in each)
+SPLIT_ROUNDS = 6
+
+
+def _sampled_split(
+    P: NDArray[np.complex128],
+    S: NDArray[np.int64],
+    R: NDArray[np.int64],
+    need: NDArray[np.float64],
+    corner_is_tip: NDArray[np.bool_],
+    cell_face_a: NDArray[np.int64],
+    bad_faces: NDArray[np.int64],
+    t: NDArray[np.float64],
+    C: NDArray[np.complex128],
+) -> tuple[NDArray[np.float64], NDArray[np.complex128]]:
+    """Centres and side points of the faces ``bad_faces`` of :func:`_split_cells` (and of the
+    faces sharing their sides) by a sampled coordinate search: in each round every free face's
+    centre becomes the best of :data:`SPLIT_SAMPLES` random convex combinations of its corners
+    (and the current one) for the least slack of its own cells, then every free side point the
+    best of as many parameters in [0.05, 0.95] for the least slack of the cells on that side.
+    Seeded, so the same faces give the same split. Returns the new ``t`` and ``C``."""
+    rng = np.random.default_rng(len(bad_faces) * 7919 + len(S))
+    t = t.copy()
+    C = C.copy()
+    rows_of = {int(f): np.flatnonzero(cell_face_a == f) for f in np.unique(cell_face_a)}
+    free_s = np.unique(np.concatenate([R[rows_of[int(f)]][:, [1, 3]].ravel() for f in bad_faces]))
+    free_f = np.unique(cell_face_a[np.isin(R[:, 1], free_s) | np.isin(R[:, 3], free_s)])
+    A, B = P[S[:, 0]], P[S[:, 1]] - P[S[:, 0]]
+
+    def least(rows: NDArray[np.int64], tt: NDArray[np.float64], cc: NDArray[np.complex128]):
+        """Least slack of the cells ``rows`` for K candidates: ``tt`` (K, nS) or (nS,), ``cc``
+        (K, faces) or (faces,)."""
+        tt = np.atleast_2d(tt)
+        cc = np.atleast_2d(cc)
+        r = R[rows]
+        corners = np.stack(
+            np.broadcast_arrays(
+                P[r[:, 0]][None, :],
+                A[r[:, 1]] + tt[:, r[:, 1]] * B[r[:, 1]],
+                cc[:, r[:, 2]],
+                A[r[:, 3]] + tt[:, r[:, 3]] * B[r[:, 3]],
+            ),
+            axis=-1,
+        )
+        ang = cell_angles(corners.reshape(-1, 4)).reshape(corners.shape)
+        lo = ang - ANGLE_MIN
+        lo[..., 0] = np.where(corner_is_tip[rows][None, :], ang[..., 0], lo[..., 0])
+        return (np.minimum(lo, ANGLE_MAX - ang) - need[rows][None]).min(axis=(1, 2))
+
+    K = SPLIT_SAMPLES
+    for _ in range(SPLIT_ROUNDS):
+        for f in free_f.tolist():
+            rows = rows_of[f]
+            pts = P[R[rows, 0]]
+            w = rng.dirichlet(np.ones(len(pts)), K)
+            cand = np.concatenate([[C[f]], w @ pts])
+            cc = np.repeat(C[None, :], K + 1, axis=0)
+            cc[:, f] = cand
+            C[f] = cand[int(np.argmax(least(rows, t, cc)))]
+        for sd in free_s.tolist():
+            rows = np.flatnonzero((R[:, 1] == sd) | (R[:, 3] == sd))
+            tt = np.repeat(t[None, :], K + 1, axis=0)
+            tt[1:, sd] = rng.uniform(0.05, 0.95, K)
+            t[sd] = tt[int(np.argmax(least(rows, tt, C))), sd]
+        if min(float(least(rows_of[int(f)], t, C)[0]) for f in free_f) >= 0:
+            break
+    return t, C
 
 
 def _centre_opt(
@@ -1607,7 +1689,10 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
 
     Only when neither closes are cuts allowed to meet at *junctions* (interior points where
     three or more cuts meet, :func:`_junctions`), with kites first, then with the tips' blocks
-    kept whole; the layouts that close without junctions are found as before.
+    kept whole; the layouts that close without junctions are found as before.  Last, the same
+    four searches run again with faces whose split about a centre SLSQP does not find from
+    their centroids given a sampled search (:func:`_sampled_split`: pentagons between the
+    cuts of a glyph's serif brackets); the layouts found before stay as they were.
 
     Args:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
@@ -1645,8 +1730,39 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
             return lay
     try:
         return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True)
-    except BlockLayoutError:
-        raise error from None
+    except BlockLayoutError as exc:
+        error_j = exc
+    # last: faces whose split about a centre SLSQP did not find from the centroids get a
+    # sampled search (the serif brackets of glyphs); a pass of its own, so that the layouts
+    # found before stay as they were (an earlier round's cuts may close now, with more cells),
+    # and only after searches whose rounds ended on faces (not an integer program without a
+    # solution: sampling would not change it)
+    if len(tips):
+        lay = _kite_layout(z, theta, tips, h, sample=True)
+        if lay is not None:
+            return lay
+    if _rounds_ended_on_faces(error):
+        try:
+            return _cut_layout(z, sample=True)
+        except BlockLayoutError:
+            pass
+    if len(tips):
+        lay = _kite_layout(z, theta, tips, h, junctions=True, sample=True)
+        if lay is not None:
+            return lay
+    if _rounds_ended_on_faces(error_j):
+        try:
+            return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True, sample=True)
+        except BlockLayoutError:
+            pass
+    raise error
+
+
+def _rounds_ended_on_faces(exc: BlockLayoutError) -> bool:
+    """Whether the cut search that raised ``exc`` went through rounds whose faces could not
+    be split (or ran out of time doing so), rather than finding no set of cuts at all."""
+    msg = exc.args[0] if exc.args else ""
+    return "could not be split" in msg or "no layout within" in msg
 
 
 @dataclass(frozen=True)
@@ -1676,6 +1792,7 @@ def _cut_layout(
     separate: bool = False,
     tee_rays: int = MAX_RAYS_FOR_TEES,
     more_tees: bool = False,
+    sample: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
@@ -1692,7 +1809,10 @@ def _cut_layout(
     programs of their own (:func:`_split_cells`), which makes the rounds faster.  T-junction
     (and junction) candidates are made while the full and bare rays number at most
     ``tee_rays``; with ``more_tees`` the search runs only if they number more than
-    :data:`MAX_RAYS_FOR_TEES` (else it would repeat the search with the default limit)."""
+    :data:`MAX_RAYS_FOR_TEES` (else it would repeat the search with the default limit).
+    ``sample``: faces whose split about a centre SLSQP does not find from their centroids get
+    a sampled search over centres and side points (:func:`_sampled_split`) before they count
+    as failed."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
@@ -1780,6 +1900,7 @@ def _cut_layout(
             min(JUNCTION_SECONDS, left) if stage == 2 else seconds,
             JUNCTION_GAP if stage == 2 else None,
             separate,
+            sample,
         )
         if lay is not None:
             return lay
@@ -1823,12 +1944,14 @@ def _kite_layout(
     tips: NDArray[np.int64],
     h: float,
     junctions: bool = False,
+    sample: bool = False,
 ) -> BlockLayout | None:
     """The layout of :func:`block_layout` with every tip cut off by a kite (:func:`_tip_kite`):
     the first that closes over the inner angles of :data:`KITE_INNER` and the kite sizes ``h``
     and ``h/2`` (each at most :data:`KITE_EDGE_SHARE` of the edges at the tip), within
     :data:`KITE_SECONDS`; None if none does.  ``points[:n]`` of the layout are ``z``.
-    ``junctions``: search with junctions only (:func:`_cut_layout`)."""
+    ``junctions``: search with junctions only, ``sample`` with sampled face splits
+    (:func:`_cut_layout`)."""
     from shapely.geometry import Polygon as ShapelyPolygon
 
     n = len(z)
@@ -1885,6 +2008,7 @@ def _kite_layout(
                     _KiteCut(tuple(kites), frozenset(rigid), frozenset(exact)),
                     min(left, SEARCH_SECONDS),
                     junctions,
+                    sample=sample,
                 )
             except BlockLayoutError as exc:
                 if "would be needed" in exc.args[0]:
@@ -1944,10 +2068,11 @@ def _search(
     seconds: float = SEARCH_SECONDS,
     rel_gap: float | None = None,
     separate: bool = False,
+    sample: bool = False,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
-    ``kites``, ``seconds`` and ``separate`` as in :func:`_cut_layout`, ``rel_gap`` as in
-    :func:`_solve`)."""
+    ``kites``, ``seconds``, ``separate`` and ``sample`` as in :func:`_cut_layout`, ``rel_gap``
+    as in :func:`_solve`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     if any(r.arms for r in rays):
@@ -2000,11 +2125,17 @@ def _search(
             else:
                 rest = [k for k in range(len(faces)) if k not in whole]
                 X, cells, wrong = _split_cells(
-                    P, [faces[k] for k in rest], pm, own, separate=separate
+                    P, [faces[k] for k in rest], pm, own, separate=separate, sample=sample
                 )
                 if wrong:  # a triangle or hexagon face: centre angles of exactly 120° or 60°
                     X, cells, wrong = _split_cells(
-                        P, [faces[k] for k in rest], pm, own, margin=-ANGLE_TOL, separate=separate
+                        P,
+                        [faces[k] for k in rest],
+                        pm,
+                        own,
+                        margin=-ANGLE_TOL,
+                        separate=separate,
+                        sample=sample,
                     )
                 wrong = [rest[k] for k in wrong]
                 if whole:
