@@ -1344,10 +1344,7 @@ def _split_cells(
     Q = cells_idx()
 
     def slack(X: NDArray[np.complex128]) -> NDArray[np.float64]:
-        ang = cell_angles(X[Q])
-        lo = ang - ANGLE_MIN
-        lo[:, 0] = np.where(corner_is_tip, ang[:, 0], lo[:, 0])  # a tip only needs > 0
-        return np.minimum(lo, ANGLE_MAX - ang) - need  # (C, 4), >= 0 where in range
+        return _split_slack(cell_angles(X[Q]), corner_is_tip, need)  # (C, 4)
 
     X = positions(t, C)
     sl = slack(X)
@@ -1393,6 +1390,17 @@ def _split_cells(
                 X = positions(t, C)
     still = np.any(sl < 0, axis=1)
     return X, Q, sorted(set(cell_face_a[still].tolist()))
+
+
+def _split_slack(
+    ang: NDArray[np.float64], corner_is_tip: NDArray[np.bool_], need: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Slack of split cells ``(..., C, 4)`` from their angles: the distance of every corner from
+    60° and 120° less its ``need`` (``(C, 4)``), >= 0 where in range; a polygon corner below 60°
+    (first corner of a cell, ``corner_is_tip``) only has to be above 0°."""
+    lo = ang - ANGLE_MIN
+    lo[..., 0] = np.where(corner_is_tip, ang[..., 0], lo[..., 0])
+    return np.minimum(lo, ANGLE_MAX - ang) - need
 
 
 #: candidates per face centre and per side point in each round of :func:`_sampled_split`
@@ -1442,9 +1450,7 @@ def _sampled_split(
             axis=-1,
         )
         ang = cell_angles(corners.reshape(-1, 4)).reshape(corners.shape)
-        lo = ang - ANGLE_MIN
-        lo[..., 0] = np.where(corner_is_tip[rows][None, :], ang[..., 0], lo[..., 0])
-        return (np.minimum(lo, ANGLE_MAX - ang) - need[rows][None]).min(axis=(1, 2))
+        return _split_slack(ang, corner_is_tip[rows], need[rows]).min(axis=(1, 2))
 
     K = SPLIT_SAMPLES
     for _ in range(SPLIT_ROUNDS):
