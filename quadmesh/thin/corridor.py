@@ -243,6 +243,7 @@ def ladder_layout(
     sector_chords: int = 16,
     tip_reach: bool = True,
     turn: bool = False,
+    own_width: bool = False,
 ) -> CorridorLayout:
     """Ladder layout of a corridor polygon ``z`` (counter-clockwise complex vertices) between
     its tips (default :func:`corridor_tips`): convex quadrilateral cells with every corner in
@@ -257,6 +258,9 @@ def ladder_layout(
     connection rows turn to meet their crosscut at right angles (:func:`_turned_rows`) where
     straight rows leave the range (bends of 90°–100°), and bends whose far wall is a circular
     arc may be round bends about the arc's centre (:func:`_round_bend`: 110°–160°, hairpins).
+    ``own_width`` (with ``partial``): where the ladder gets stuck less than one and a half of
+    the walls' median widths from its start, it is cut one and a half of its own widths (its
+    median rung) before — an arm of a wide body, whose walls' median width is the body's.
 
     Raises:
         ThinPartError: no admissible layout exists with the sampled rung ends (the message
@@ -659,6 +663,11 @@ def ladder_layout(
             sig = L.sigma[pa[reached]] + R.sigma[pb[reached]]
             wmed_ = float(np.median(np.r_[L.width, R.width]))
             ok_ = sig <= sig.max() - 3.0 * wmed_
+            if own_width and not ok_.any():
+                # an arm of a wide body (a leg of a traced animal): the walls' median width
+                # is the body's; one and a half of the arm's own widths (its median rung)
+                rung = np.abs(L.pos[pa[reached]] - R.pos[pb[reached]])
+                ok_ = sig <= sig.max() - 3.0 * min(wmed_, float(np.median(rung)))
             if ok_.any():
                 cut = int(reached[ok_][np.argmax(sig[ok_])])
                 path = []
@@ -2146,7 +2155,7 @@ def arm_and_body(
     lay = None
     for tips in candidates:
         try:
-            lay = ladder_layout(z, tips, partial=True)
+            lay = ladder_layout(z, tips, partial=True, own_width=True)
         except ThinPartError:
             continue
         if not lay.open_end:
