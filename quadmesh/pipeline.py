@@ -151,6 +151,9 @@ def mesh_polygon(
     options = options or MeshOptions()
     runner = PieceRunner(options.jobs, executor)
     failed = True
+    top = getattr(_nesting, "value", 0) == 0
+    if top:  # the knotted arms' budgets: for the user's polygon and every part inside it
+        _nesting.knot_meshes, _nesting.knot_failures = KNOT_MESHES, KNOT_FAILED_BODIES
     try:
         with running(progress, cancel) as run, blas_threads(options.blas_threads):
             first: dict[str, str] = {}
@@ -176,6 +179,8 @@ def mesh_polygon(
         return result
     finally:
         runner.close(failed)
+        if top:
+            _nesting.knot_meshes = _nesting.knot_failures = None
 
 
 def _sized_retry(options: MeshOptions, exc: QuadmeshError) -> MeshOptions | None:
@@ -377,7 +382,8 @@ def _rescue(dec, options, exc, run, report, timings, runner, arm_first: bool, cr
     the body behind it (unless ``arm_first``: it was tried), then — where the failure is
     crowding (``crowded``), not a distortion the adaptive loop could not fix — a bridge across
     the middle, then the failing pieces' maps from their least crowded centres (arms and
-    bridges first: they take fewer quads, cmr10 "9" 68,552 by a bridge, 86,282 so). Returns
+    bridges first: they take fewer quads, cmr10 "9" 68,552 by a bridge, 86,282 so), then a
+    knotted arm (:func:`_mesh_knotted_arm`) and, for the user's polygon, a chain. Returns
     (assembler, pieces, thin parts, decomposition) or None."""
     stop = run.cancel if run is not None else None
     armed = None
@@ -395,6 +401,14 @@ def _rescue(dec, options, exc, run, report, timings, runner, arm_first: bool, cr
                 armed = (*_mesh_thick_and_thin(moved, options, report, timings, runner), moved)
             except (ConformalMapError, DiskConstructionError):
                 armed = None
+    if armed is None and crowded:
+        # an arm whose own tip no ladder leaves (a hoof, a peninsula's ragged end): the tip
+        # cut off as a knot (after the routes above, whose meshes glyphs keep)
+        from .thin.corridor import crowded_place
+
+        toward = crowded_place(dec)
+        if toward is not None:
+            armed = _mesh_knotted_arm(dec, options, stop, runner.executor, toward)
     if (
         armed is None
         and crowded
@@ -968,3 +982,126 @@ def _mesh_arm_and_body(
     asm.add_quads(gl[arm.quads], source=3)
     thin = [*inner.thin, ThinPartResult("corridor", len(inner.thin), arm, gl)]
     return asm, list(inner.pieces), thin, inner.decomposition
+
+
+#: A knotted arm (:func:`_mesh_knotted_arm`) is tried from at most this many tips nearest the
+#: crowded place (and the ends of the polygon's longest stretch), with at most
+#: :data:`KNOT_CUTS` knots per tip whose ladder leaves; at most :data:`KNOT_MESHES` part meshes
+#: (knots and bodies) are made for the user's polygon and all parts inside it (a horse with four
+#: legs and a tail takes 10), and once :data:`KNOT_FAILED_BODIES` bodies behind knotted arms
+#: have failed no more are tried (a traced text whose strokes are crowded in their middles took
+#: minutes to refuse): counts, not times, so that what meshes does not depend on the machine.
+KNOT_TIPS = 1
+KNOT_CUTS = 3
+KNOT_MESHES = 14
+KNOT_FAILED_BODIES = 1
+#: ... and only where the ladder from the knot has at least this many rungs (an arm, not a
+#: spur: a horse's legs take 10–19; a 3-rung ladder from a spur of the camera man's coat left
+#: a body as crowded as the whole, 42 s to fail)
+KNOT_MIN_RUNGS = 5
+#: ... and a knot has at most this many vertices or a quarter of the polygon's (a horse's hoof
+#: with its pastern: 23–64 of 571–815).
+KNOT_MAX_VERTICES = 80
+
+
+def _mesh_knotted_arm(
+    dec,
+    options: MeshOptions,
+    cancel: CancelCallback | None,
+    executor: Executor | None,
+    toward: complex,
+):
+    """An arm whose own tip no ladder leaves (a hoof of a traced animal, a ragged end of a
+    contour) as a *knotted arm*: the tip cut off a few widths from its end by a straight
+    crosscut (:func:`~quadmesh.thin.corridor.tip_cuts`) — the *knot*, small enough for the
+    paper's construction — then a ladder from that cut up the arm (a bridge's, from a virtual
+    cap) to where it gets stuck, and the body behind meshed by :func:`mesh_polygon`
+    (recursively: it may have arms again). The ladder's first rung takes the knot mesh's points
+    on the cut and its last rung the body mesh's, their counts joined by transition cascades
+    (:func:`_bridge_join`). Tips nearest ``toward`` (where the polygon is crowded) first; knots
+    are not knotted again. Returns (assembler, the knot's thick-piece results, thin-part
+    results, the knot's decomposition) or None."""
+
+    if getattr(_nesting, "in_knot", False) or getattr(_nesting, "retry", False):
+        return None  # (not again in the retry with arcs chosen for size: bodies take minutes)
+    outer = getattr(_nesting, "knot_meshes", None) is None
+    if outer:  # called outside mesh_polygon: budgets of its own
+        _nesting.knot_meshes, _nesting.knot_failures = KNOT_MESHES, KNOT_FAILED_BODIES
+    try:
+        if _nesting.knot_failures <= 0:
+            return None
+        return _knotted_arm_search(dec, options, cancel, executor, toward)
+    finally:
+        if outer:
+            _nesting.knot_meshes = _nesting.knot_failures = None
+
+
+def _knotted_arm_search(
+    dec,
+    options: MeshOptions,
+    cancel: CancelCallback | None,
+    executor: Executor | None,
+    toward: complex,
+):
+    """The tips and knots of :func:`_mesh_knotted_arm` tried in turn, each part meshed from the
+    budget of part meshes left (``_nesting.knot_meshes``)."""
+    from .thin.corridor import arm_tips, bridge_layout, corridor_tips, shorter_bridges, tip_cuts
+
+    z = dec.polygon.z
+
+    def part(w: np.ndarray, knot: bool = False) -> MeshResult | None:
+        if _nesting.knot_meshes <= 0:
+            return None
+        _nesting.knot_meshes -= 1
+        was = getattr(_nesting, "in_knot", False), getattr(_nesting, "keep_frame", False)
+        # a knot is small and far from (0, 0) against its size: meshed where it lies, so that
+        # its points on the cut can be matched (as a chain's knots)
+        _nesting.in_knot = _nesting.keep_frame = knot
+        try:
+            return _mesh_part(w, options, cancel, executor)
+        finally:
+            _nesting.in_knot, _nesting.keep_frame = was
+
+    # the tips nearest the crowded place, then the two ends of the polygon's longest stretch
+    # (where the crowding is at the stub an arm's cut left, the other arms are elsewhere)
+    tips = [t for t, _e in arm_tips(z, toward, count=KNOT_TIPS)]
+    tips = list(dict.fromkeys([*tips, *corridor_tips(z)]))
+    for s in tips:
+        # the longest ladders first: the knot's and the body's meshes fix many points on the
+        # two cuts (199 and 154 on a horse's leg), and cascades between them need cells
+        found = []
+        for rc in tip_cuts(z, s):
+            if rc.knot.size > max(KNOT_MAX_VERTICES, z.size // 4):
+                continue  # no knot: much of the polygon, as crowded as the whole
+            got = bridge_layout(rc.rest, min_rungs=KNOT_MIN_RUNGS, own_width=True)
+            if got is not None:
+                found.append((rc, got))
+        found.sort(key=lambda t: -len(t[1][0].rungs))
+        for rc, (lay, q, body) in found[:KNOT_CUTS]:
+            if _nesting.knot_meshes <= 0:
+                return None
+            knot_r = part(rc.knot, knot=True)
+            if knot_r is None:
+                continue
+            v = lay.vertices
+            start = _cut_ids(knot_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+            if start is None:
+                continue
+            ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q, 1)]
+            for lay_k, body_k in ends:
+                body_r, end = None, None
+                if body_k is not None:
+                    body_r = part(body_k)
+                    if body_r is None:
+                        # the body behind this arm does not mesh: behind another tip's it
+                        # would hold the same crowded places (and cost as much again)
+                        _nesting.knot_failures -= 1
+                        return None
+                    vk = lay_k.vertices
+                    end = _cut_ids(body_r.mesh.z, vk[lay_k.rungs[-1][0]], vk[lay_k.rungs[-1][1]])
+                    if end is None:
+                        continue
+                joined = _bridge_join(lay_k, q, knot_r, start, body_r, end)
+                if joined is not None:
+                    return joined
+    return None

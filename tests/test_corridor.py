@@ -839,6 +839,46 @@ def test_a_chain_restarts_the_ladder_past_where_it_gets_stuck():
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
+def test_a_tip_no_ladder_leaves_is_cut_off_as_a_knot():
+    """A horse's hind leg traced from scikit-image's "horse" (its walls alternate 166° and 194°
+    every pixel; the hoof is a blunt, stepped end) under a rectangular body: no ladder leaves
+    the hoof, so no arm starts there. The knotted arm cuts the hoof off a few widths up the
+    leg (a knot of at most 80 vertices, meshed by the paper's construction), runs a ladder from
+    that cut up the leg and meshes the body behind it; the three meshes share their points on
+    the two cuts by index. Checked from outside: convex counter-clockwise quads, every new
+    angle in [60°, 120°], conformity, the boundary exactly the polygon's, the area exact."""
+    from types import SimpleNamespace
+
+    from quadmesh.errors import ThinPartError
+    from quadmesh.families import images
+    from quadmesh.pipeline import KNOT_MAX_VERTICES, _mesh_knotted_arm
+    from quadmesh.result import MeshOptions
+    from quadmesh.thin.corridor import tip_cuts
+
+    horse = next(m for m in images(0) if m.name == "horse_0").vertices
+    leg = horse[491:570, 0] + 1j * horse[491:570, 1]  # down, round the hoof, up (y down)
+    w = np.r_[leg, 110 - 228j, 110 - 180j, 30 - 180j, 30 - 222j]
+    poly = validate_polygon(np.column_stack([w.real, w.imag]))
+    assert np.array_equal(poly.z, w)
+    hoof = 47  # (75.18, -311): the ear of the dual tree nearest the hoof's toe
+    with pytest.raises(ThinPartError, match="at the end near"):
+        ladder_layout(poly.z, (hoof, 82), partial=True)
+    cuts = tip_cuts(poly.z, hoof)
+    assert cuts and all(rc.knot.size <= KNOT_MAX_VERTICES for rc in cuts)
+    assert all(poly.z[hoof] in rc.knot and poly.z[hoof] not in rc.rest for rc in cuts)
+    got = _mesh_knotted_arm(
+        SimpleNamespace(polygon=poly), MeshOptions(), None, None, complex(75.3, -310.5)
+    )
+    assert got is not None
+    asm, pieces, thin, _dec = got
+    assert [t.kind for t in thin].count("corridor") == 1 and pieces
+    quads, src = asm.all_quads()
+    assert set(np.unique(src)) >= {3}  # the ladder's quads among the two meshes'
+    z = asm.vertices()
+    lo, hi = independent_check(poly.vertices, np.column_stack([z.real, z.imag]), quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
 def test_a_morph_between_two_rungs_tilts_rows_where_the_cells_have_room():
     """A run of ladder cells between two rungs whose points are fixed (same count, different
     spacing) moves its rows from one spacing to the other along the run. Two of its cells

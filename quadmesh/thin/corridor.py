@@ -2312,8 +2312,26 @@ def restart_cuts(
     if path is None:
         return []
     cen = np.r_[0.5 * (z[0] + z[-1]), z[tri].mean(axis=1)[path]]
-    arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
     width = abs(z[0] - z[-1])
+    places = [(float(d), float(d) * width, width) for d in distances]
+    return _cuts_along(z, cen, places, (n - 1, 0), (n - 1,), margin)
+
+
+def _cuts_along(
+    z: np.ndarray,
+    cen: np.ndarray,
+    places: list[tuple[float, float, float]],
+    knot_side: tuple[int, ...],
+    keep_off: tuple[int, ...],
+    margin: float,
+) -> list[RestartCut]:
+    """Crosscuts of ``z`` across the path ``cen`` (points along a corridor's middle), one per
+    place (label, arc length along the path, width there: the tangent is taken over ±1
+    width), each perpendicular to the path, kept as :func:`_cut_through` keeps them and when
+    the vertices ``knot_side`` all lie on one side of it (the knot's) and it meets none of the
+    edges ``keep_off``."""
+    n = z.size
+    arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
     poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
     lo, hi = 60.0 + margin, 120.0 - margin
 
@@ -2321,23 +2339,62 @@ def restart_cuts(
         return complex(np.interp(s, arc, cen.real), np.interp(s, arc, cen.imag))
 
     out: list[RestartCut] = []
-    for dist in distances:
-        s_ = float(dist) * width
+    for label, s_, width in places:
         if s_ >= arc[-1] - width:
             break
         tangent = at(s_ + width) - at(max(0.0, s_ - width))
         if abs(tangent) == 0.0:
             continue
         c = _cut_through(z, at(s_), poly, lo, hi, 1j * tangent / abs(tangent))
-        if c is None or n - 1 in (c.ia, c.ib):
+        if c is None or any(k in (c.ia, c.ib) for k in keep_off):
             continue
-        first = [(c.ia + 1 + k) % n for k in range((c.ib - c.ia) % n)]
-        knot_first = 0 in first and n - 1 in first
-        if not knot_first and (0 in first or n - 1 in first):
-            continue  # the cut separates the rung's two ends
-        knot, rest = (c.first, c.second) if knot_first else (c.second, c.first)
-        out.append(RestartCut(float(dist), c, knot, rest))
+        first = set((c.ia + 1 + k) % n for k in range((c.ib - c.ia) % n))
+        inside = [k in first for k in knot_side]
+        if any(inside) and not all(inside):
+            continue  # the cut separates the knot's vertices
+        knot, rest = (c.first, c.second) if all(inside) else (c.second, c.first)
+        out.append(RestartCut(label, c, knot, rest))
     return out
+
+
+#: Where a tip that no ladder leaves (a hoof, a ragged end of a traced contour) is cut off as a
+#: knot (:func:`tip_cuts`): distances from the tip along the corridor, in widths there.
+TIP_KNOT_WIDTHS = (2.0, 4.0, 6.0, 8.0, 10.0, 12.0)
+
+
+def tip_cuts(
+    z: np.ndarray,
+    tip: int,
+    widths: tuple[float, ...] = TIP_KNOT_WIDTHS,
+    margin: float = CELL_MARGIN,
+) -> list[RestartCut]:
+    """Crosscuts of the polygon ``z`` cutting off the end of an arm at the vertex ``tip``
+    (a *knot*: the tip's side, holding ``tip`` and its two edges) at the given distances from
+    the tip along the path through the dual tree of a constrained Delaunay triangulation from
+    the tip's triangle to the farthest one, in local widths (twice the distance from the path
+    to the boundary, its largest value up to there, so that a narrowing end does not shrink
+    the knot), each perpendicular to the path. For an arm whose own end no ladder starts
+    from: the knot small enough for the paper's construction, a ladder leaving its cut."""
+    z = np.asarray(z, dtype=np.complex128)
+    n = z.size
+    tri, g, _apex, _ear = _dual_tree(z)
+    path = _path_from_edge(tri, g, (tip - 1) % n, tip)
+    if path is None:
+        return []
+    cen = np.r_[z[tip], z[tri].mean(axis=1)[path]]
+    arc = np.r_[0.0, np.cumsum(np.abs(np.diff(cen)))]
+    ring = shapely.LinearRing(np.column_stack([z.real, z.imag]))
+    clear = 2.0 * shapely.distance(shapely.points(np.column_stack([cen.real, cen.imag])), ring)
+    width = np.maximum.accumulate(clear)
+    ratio = arc / np.maximum(width, 1e-300)
+    places = []
+    for w in widths:
+        reached = np.flatnonzero(ratio >= w)
+        if reached.size:
+            k = int(reached[0])
+            places.append((float(w), float(arc[k]), float(width[k])))
+    tip_edges = ((tip - 1) % n, tip)
+    return _cuts_along(z, cen, places, (tip,), tip_edges, margin)
 
 
 def _path_from_edge(tri: np.ndarray, g, i: int, j: int) -> list[int] | None:
@@ -2380,14 +2437,15 @@ def capped(part: np.ndarray) -> np.ndarray:
 
 
 def bridge_layout(
-    part: np.ndarray, min_rungs: int = 3
+    part: np.ndarray, min_rungs: int = 3, own_width: bool = False
 ) -> tuple[CorridorLayout, np.ndarray, np.ndarray | None] | None:
     """A ladder from the cut of ``part`` (a side of a :class:`BridgeCut`) into it, started from
     a virtual cap (:func:`capped`): the layout (its first rung the cut), the capped polygon, and
     the body where the ladder gets stuck (None when it reaches the far end: the part is a
     corridor), or None when no ladder of at least ``min_rungs`` rungs leaves the cut (two: a
     single cell, as across a straight stem, which only a cell cut along its length can give
-    room for its transitions)."""
+    room for its transitions). ``own_width``: as for :func:`ladder_layout` (an arm's ladder
+    from a knot, :func:`quadmesh.pipeline._mesh_knotted_arm`)."""
     q = capped(np.asarray(part, dtype=np.complex128))
     m = q.size
     if not shapely.Polygon(np.column_stack([q.real, q.imag])).is_valid:
@@ -2403,7 +2461,7 @@ def bridge_layout(
         if far is None or far in (m - 2, m - 1):
             return None
     try:
-        lay = ladder_layout(q, (m - 2, far), partial=True, tip_reach=False)
+        lay = ladder_layout(q, (m - 2, far), partial=True, tip_reach=False, own_width=own_width)
     except ThinPartError:
         return None
     cut0 = {int(lay.rungs[0][0]), int(lay.rungs[0][1])}
