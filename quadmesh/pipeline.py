@@ -995,6 +995,10 @@ KNOT_TIPS = 1
 KNOT_CUTS = 3
 KNOT_MESHES = 14
 KNOT_FAILED_BODIES = 1
+#: ... and only in polygons of at most this many vertices: each body behind a knotted arm is
+#: meshed in full, and on a 1,817-vertex coast (coast_5 of the families, still refused) the
+#: search took 21 minutes to fail; the horse has 815, coast_1 661.
+KNOT_MAX_POLYGON = 1000
 #: ... and only where the ladder from the knot has at least this many rungs (an arm, not a
 #: spur: a horse's legs take 10–19; a 3-rung ladder from a spur of the camera man's coat left
 #: a body as crowded as the whole, 42 s to fail)
@@ -1024,6 +1028,8 @@ def _mesh_knotted_arm(
 
     if getattr(_nesting, "in_knot", False) or getattr(_nesting, "retry", False):
         return None  # (not again in the retry with arcs chosen for size: bodies take minutes)
+    if dec.polygon.z.size > KNOT_MAX_POLYGON:
+        return None
     outer = getattr(_nesting, "knot_meshes", None) is None
     if outer:  # called outside mesh_polygon: budgets of its own
         _nesting.knot_meshes, _nesting.knot_failures = KNOT_MESHES, KNOT_FAILED_BODIES
