@@ -653,6 +653,13 @@ def _cut_ids(w: np.ndarray, za: complex, zb: complex) -> np.ndarray | None:
     return np.r_[ends[0], on[np.argsort(t.real[on])], ends[1]]
 
 
+def _rung_ids(lay, r: MeshResult, k: int) -> np.ndarray | None:
+    """Indices of the points of ``r``'s mesh on rung ``k`` of the ladder ``lay``, in order from
+    its L end (:func:`_cut_ids`); None when an end is missing."""
+    a, b = (int(x) for x in lay.rungs[k])
+    return _cut_ids(r.mesh.z, lay.vertices[a], lay.vertices[b])
+
+
 def _mesh_bridge(
     dec, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None = None
 ):
@@ -726,8 +733,7 @@ def _bridge_search(
         near_r = part(near)
         if near_r is None:
             continue
-        v = lay.vertices
-        start = _cut_ids(near_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+        start = _rung_ids(lay, near_r, 0)
         if start is None:
             continue
         # the far body's cut: where the ladder stops, else a rung or three before (its mesh
@@ -752,13 +758,12 @@ def _bridge_mesh(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body
     :func:`_mesh_bridge`, or None when the body does not mesh, the ladder cannot join the two
     ends, or their point counts differ in parity — then the arguments of :func:`_bridge_join`
     are appended to ``odd`` for a later try."""
-    v = lay.vertices
     body_r, end = None, None
     if body is not None:
         body_r = part(body)
         if body_r is None:
             return None
-        end = _cut_ids(body_r.mesh.z, v[lay.rungs[-1][0]], v[lay.rungs[-1][1]])
+        end = _rung_ids(lay, body_r, -1)
         if end is None:
             return None
         if (end.size - start.size) % 2:
@@ -842,14 +847,13 @@ def _mesh_chain(
     total = abs(signed_area(dec.polygon.z))
 
     def join(lay, q, start_r: MeshResult | None, end_r: MeshResult | None):
-        v = lay.vertices
         start = end = None
         if start_r is not None:
-            start = _cut_ids(start_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+            start = _rung_ids(lay, start_r, 0)
             if start is None:
                 return None
         if end_r is not None:
-            end = _cut_ids(end_r.mesh.z, v[lay.rungs[-1][0]], v[lay.rungs[-1][1]])
+            end = _rung_ids(lay, end_r, -1)
             if end is None:
                 return None
         try:
@@ -970,8 +974,7 @@ def _mesh_arm_and_body(
     except ThinPartError:
         return None
     # the cut: the body's points on it, from the arm's L end to its R end
-    a, b = (int(x) for x in lay.rungs[-1])
-    cut = _cut_ids(inner.mesh.z, lay.vertices[a], lay.vertices[b])
+    cut = _rung_ids(lay, inner, -1)
     if cut is None or cut.size != arm.cut.size:
         return None
     asm = Assembler()
@@ -1089,8 +1092,7 @@ def _knotted_arm_search(
             knot_r = part(rc.knot, knot=True)
             if knot_r is None:
                 continue
-            v = lay.vertices
-            start = _cut_ids(knot_r.mesh.z, v[lay.rungs[0][0]], v[lay.rungs[0][1]])
+            start = _rung_ids(lay, knot_r, 0)
             if start is None:
                 continue
             ends = [(lay, None)] if body is None else [(lay, body), *shorter_bridges(lay, q, 1)]
@@ -1103,8 +1105,7 @@ def _knotted_arm_search(
                         # would hold the same crowded places (and cost as much again)
                         _nesting.knot_failures -= 1
                         return None
-                    vk = lay_k.vertices
-                    end = _cut_ids(body_r.mesh.z, vk[lay_k.rungs[-1][0]], vk[lay_k.rungs[-1][1]])
+                    end = _rung_ids(lay_k, body_r, -1)
                     if end is None:
                         continue
                 joined = _bridge_join(lay_k, q, knot_r, start, body_r, end)
