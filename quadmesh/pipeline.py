@@ -1028,7 +1028,6 @@ def _mesh_knotted_arm(
     (:func:`_bridge_join`). Tips nearest ``toward`` (where the polygon is crowded) first; knots
     are not knotted again. Returns (assembler, the knot's thick-piece results, thin-part
     results, the knot's decomposition) or None."""
-
     if getattr(_nesting, "in_knot", False) or getattr(_nesting, "retry", False):
         return None  # (not again in the retry with arcs chosen for size: bodies take minutes)
     if dec.polygon.z.size > KNOT_MAX_POLYGON:
