@@ -163,6 +163,16 @@ def repair_angles(
     ncomp, label = connected_components(graph, directed=False)
     order = np.argsort(label, kind="stable")
     bounds = np.searchsorted(label[order], np.arange(ncomp + 1))
+    # all groups in one least-squares solve first (its Jacobian is block-diagonal, so the
+    # groups stay independent but share the solver's per-iteration overhead); when that
+    # leaves any angle out of range or moves a vertex too far, each group on its own
+    if ncomp > 1:
+        got = _solve_region(z0, q, ang, region, lo, hi, margin, tq, xtol, max_nfev)
+        if got is not None and got[1] <= max_shift:
+            z = z0.copy()
+            z[region] = got[0]
+            moved = region[z[region] != z0[region]]
+            return z, RepairReport(moved, got[1], got[3], got[2])
     z = z0.copy()
     lo_new, hi_new, shift_max = 180.0, 0.0, 0.0
     before_lo, before_hi = 180.0, 0.0
@@ -239,25 +249,32 @@ def _solve_region(
         return np.concatenate([r1, r2, r3, mu * x])
 
     # analytic Jacobian. d arg(w) = Im(dw / w): the gradient of arg(w) in (x, y) is i/conj(w).
+    # Its sparsity pattern is fixed (rows: the 4 angles of every quad below lo, the 4 above
+    # hi, every quad's area, the displacement penalty; columns: x and y of every region
+    # vertex), so it is built once and only the values are recomputed per call.
     nq = len(qq)
     nx = 2 * region.size
     pq = pos[qq]  # (nq, 4) region position of each corner, -1 if fixed
     scale = np.where(pq >= 0, h[qq], 0.0)  # dz = h dx for region vertices
-    rows4 = np.arange(4 * nq).reshape(nq, 4)
     kprev = np.array([3, 0, 1, 2])
     knext = np.array([1, 2, 3, 0])
-
-    def _coo(rows, corner_pos, corner_scale, grad):
-        """Entries d(row)/d(x, y) of the corners given their complex gradients."""
-        ok = corner_pos >= 0
-        r = rows[ok]
-        g = grad[ok] * corner_scale[ok]
-        c = corner_pos[ok]
-        return (
-            np.concatenate([r, r]),
-            np.concatenate([2 * c, 2 * c + 1]),
-            np.concatenate([g.real, g.imag]),
-        )
+    k_all = np.arange(4)
+    # blocks of (rows, corner positions): lo angles and hi angles w.r.t. the previous, next
+    # and own corner, then the area rows w.r.t. the four corners
+    rows4 = np.arange(4 * nq).reshape(nq, 4)
+    rows_area = np.repeat((8 * nq + np.arange(nq))[:, None], 4, axis=1)
+    blocks = [(rows4 + off, pq[:, k]) for off in (0, 4 * nq) for k in (kprev, knext, k_all)]
+    blocks.append((rows_area, pq))
+    keep = np.concatenate([(cp >= 0).ravel() for _, cp in blocks])
+    r_all = np.concatenate([r.ravel() for r, _ in blocks])[keep]
+    c_all = np.concatenate([cp.ravel() for _, cp in blocks])[keep]
+    rr = np.concatenate([r_all, r_all, 9 * nq + np.arange(nx)])
+    cc = np.concatenate([2 * c_all, 2 * c_all + 1, np.arange(nx)])
+    nnz = rr.size
+    # where each entry lands in the CSR arrays (entries are distinct: no duplicate sums)
+    pattern = sp.csr_matrix((np.arange(1, nnz + 1, dtype=float), (rr, cc)), shape=(9 * nq + nx, nx))
+    perm = pattern.data.astype(np.int64) - 1
+    scales = [scale[:, k] for k in (kprev, knext, k_all)]
 
     def jacobian(x: NDArray[np.float64]) -> sp.csr_matrix:
         z = unpack(x)
@@ -267,29 +284,18 @@ def _solve_region(
         gp = 1j / np.conj(prev)
         gn = 1j / np.conj(nxt)
         a = np.mod(np.angle(prev / nxt), 2 * np.pi)
-        s1 = -weight * (lo_t - a > 0)
-        s2 = weight * (a - hi_t > 0)
-        parts = []
-        for sgn, off in ((s1, 0), (s2, 4 * nq)):
-            rows = rows4 + off
-            # d a_k / d z_{k-1} = G(prev), d z_{k+1} = -G(nxt), d z_k = G(nxt) - G(prev)
-            for corner, grad in (
-                (kprev, gp),
-                (knext, -gn),
-                (np.arange(4), gn - gp),
-            ):
-                cp = pq[:, corner]
-                cs = scale[:, corner]
-                parts.append(_coo(rows, cp, cs, sgn * grad))
+        # d a_k / d z_{k-1} = G(prev), d z_{k+1} = -G(nxt), d z_k = G(nxt) - G(prev)
+        grads = (gp, -gn, gn - gp)
+        vals = []
+        for sgn in (-weight * (lo_t - a > 0), weight * (a - hi_t > 0)):
+            vals += [(sgn * g * sc).ravel() for g, sc in zip(grads, scales)]
         area = quad_signed_areas(z, qq)
         act = (area_min - area > 0) / np.maximum(area_min, 1e-300)
         ga = -0.5j * (c[:, knext] - c[:, kprev])  # d area / d z_k
-        rows_area = np.repeat((8 * nq + np.arange(nq))[:, None], 4, axis=1)
-        parts.append(_coo(rows_area, pq, scale, -act[:, None] * ga))
-        r = np.concatenate([p[0] for p in parts] + [9 * nq + np.arange(nx)])
-        cc = np.concatenate([p[1] for p in parts] + [np.arange(nx)])
-        v = np.concatenate([p[2] for p in parts] + [np.full(nx, mu)])
-        return sp.csr_matrix((v, (r, cc)), shape=(9 * nq + nx, nx))
+        vals.append((-act[:, None] * ga * scale).ravel())
+        g = np.concatenate(vals)[keep]
+        data = np.concatenate([g.real, g.imag, np.full(nx, mu)])[perm]
+        return sp.csr_matrix((data, pattern.indices, pattern.indptr), shape=pattern.shape)
 
     x0 = np.zeros(nx)
     sol = least_squares(
