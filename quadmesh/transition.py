@@ -576,12 +576,27 @@ def _polish(
         )
         return zz if x.ndim == 2 else zz[0]
 
+    # the corners whose angles count (as :func:`quad_angles_deg` measures them: from the edge
+    # to the next corner to the edge to the previous one) and the Fermat points' neighbours
+    # (as :func:`_fermat_room`), indexed once: margins() runs a few hundred times per pair
+    counted = ~exact
+    k_at = quads[counted]
+    k_next, k_prev = quads[:, [1, 2, 3, 0]][counted], quads[:, [3, 0, 1, 2]][counted]
+    f_q, f_x = spec[:, 0], spec[:, 1:]
+    f_roll = np.roll(f_x, 1, axis=1)
+
     def margins(x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The margins for the offsets ``x`` (2·nf,), or per row of ``x`` (B, 2·nf)."""
         zz = np.atleast_2d(at(x))
-        qq = np.broadcast_to(quads, (zz.shape[0], *quads.shape))
-        a = quad_angles_deg(zz, qq)[:, ~exact]
-        m = np.concatenate([a - 60.0, 120.0 - a, _fermat_room(zz, spec)], axis=1)
+        za = zz[:, k_at]
+        ang = np.angle(-(za - zz[:, k_prev]) * np.conj(zz[:, k_next] - za))
+        ang[ang < 0] += 2 * np.pi
+        a = np.degrees(ang, out=ang)
+        xs = zz[:, f_x]
+        near = np.abs(xs - zz[:, f_q][..., None]).min(axis=-1)
+        side = np.abs(xs - zz[:, f_roll]).min(axis=-1)
+        room = 100.0 * (near / side - FERMAT_ROOM)
+        m = np.concatenate([a - 60.0, 120.0 - a, room], axis=1)
         m = np.where(np.isfinite(m), m, -180.0)
         return m if x.ndim == 2 else m[0]
 
