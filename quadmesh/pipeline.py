@@ -821,7 +821,9 @@ def _mesh_chain(
     that rung to a straight crosscut a few widths on (:func:`~quadmesh.thin.corridor.
     restart_cuts`), small enough for the paper's construction — and a ladder restarted from
     that crosscut (a bridge's, from a virtual cap), and so on until a ladder reaches the far
-    tip or the rest meshes as one part. Every ladder takes its knots' points on its end rungs
+    tip or the rest meshes as one part. Where no arm leaves either tip (a river whose bank
+    hooks at its end, a tight bend next to it), the chain starts with a knot at a tip instead
+    (:func:`_chain_knot_start`). Every ladder takes its knots' points on its end rungs
     by index, transition cascades (with a parity row for odd differences) changing the count
     between them. Each knot takes the nearest restart from which a ladder leaves and whose
     ladder behind joins the knot's mesh. Knots are meshed where they lie (not translated to
@@ -836,10 +838,27 @@ def _mesh_chain(
         shorter_bridges,
     )
 
-    split = arm_and_body(dec.polygon.z)
-    if split is None:
-        return None
-    lay, body = split
+    def part(w: np.ndarray) -> MeshResult | None:
+        keep = getattr(_nesting, "keep_frame", False)
+        _nesting.keep_frame = True
+        try:
+            return _mesh_part(w, options, cancel, executor)
+        finally:
+            _nesting.keep_frame = keep
+
+    q = dec.polygon.z
+    knots: list[MeshResult] = []
+    split = arm_and_body(q)
+    if split is not None:
+        lay, body = split
+    else:
+        # no arm leaves either tip (a river's end with a hooked bank, a tight bend next to
+        # it): the chain starts with a knot at a tip
+        start = _chain_knot_start(q, part)
+        if start is None:
+            return None
+        knot_r, (lay, q, body) = start
+        knots.append(knot_r)
     run = active()
     if run is not None:
         # a chain takes minutes: the bar follows the share of the polygon's area meshed
@@ -872,20 +891,16 @@ def _mesh_chain(
             return None
         return arm, start, end
 
-    def part(w: np.ndarray) -> MeshResult | None:
-        keep = getattr(_nesting, "keep_frame", False)
-        _nesting.keep_frame = True
-        try:
-            return _mesh_part(w, options, cancel, executor)
-        finally:
-            _nesting.keep_frame = keep
-
-    q = dec.polygon.z
-    knots: list[MeshResult] = []
     segments = []  # (corridor mesh, ids on its first rung, ids on its last rung, knot before)
     for _ in range(CHAIN_MAX_KNOTS):
         if cancel is not None and cancel():
             raise Cancelled("meshing cancelled during a chain of ladders")
+        if body is None:  # the ladder from the last knot reaches the far tip
+            seg = join(lay, q, knots[-1], None)
+            if seg is None:
+                return None
+            segments.append((*seg, len(knots) - 1))
+            break
         step = None
         tries = CHAIN_JOINS
         for rc in restart_cuts(body, RESTART_WIDTHS):
@@ -922,12 +937,6 @@ def _mesh_chain(
         segments.append((*seg, len(knots) - 1))
         knots.append(kr)
         checkpoint(1.0 if body is None else 1.0 - abs(signed_area(body)) / total)
-        if body is None:  # the ladder from the knot reaches the far tip
-            seg = join(lay, q, kr, None)
-            if seg is None:
-                return None
-            segments.append((*seg, len(knots) - 1))
-            break
     else:
         return None
     asm = Assembler()
@@ -944,6 +953,35 @@ def _mesh_chain(
         asm.add_quads(gl[arm.quads], source=3)
         thin.append(ThinPartResult("corridor", len(thin), arm, gl))
     return asm, list(knots[0].pieces), thin, knots[0].decomposition
+
+
+#: Where a chain with no arm at either tip starts (:func:`_chain_knot_start`): knots cut off
+#: a tip at these distances along the corridor (in widths), of at most a third of the
+#: polygon's vertices.
+CHAIN_KNOT_WIDTHS = tuple(float(w) for w in range(2, 31, 2))
+CHAIN_KNOT_SHARE = 3
+
+
+def _chain_knot_start(z: np.ndarray, part):
+    """The first knot of a chain whose tips no arm leaves: at either end of the polygon's
+    longest stretch, the nearest tip cut (:func:`~quadmesh.thin.corridor.tip_cuts`) from which
+    a ladder leaves and whose knot meshes (``part``) with its points on the cut taken by the
+    ladder's first rung. Returns (the knot's result, (ladder, capped rest, body behind it)) or
+    None."""
+    from .thin.corridor import bridge_layout, corridor_tips, tip_cuts
+
+    limit = z.size // CHAIN_KNOT_SHARE
+    for s in dict.fromkeys(corridor_tips(z)):
+        for rc in tip_cuts(z, s, widths=CHAIN_KNOT_WIDTHS):
+            if rc.knot.size > limit:
+                break
+            got = bridge_layout(rc.rest, min_rungs=KNOT_MIN_RUNGS, own_width=True)
+            if got is None:
+                continue
+            knot_r = part(rc.knot)
+            if knot_r is not None and _rung_ids(got[0], knot_r, 0) is not None:
+                return knot_r, got
+    return None
 
 
 def _mesh_arm_and_body(

@@ -879,6 +879,44 @@ def test_a_tip_no_ladder_leaves_is_cut_off_as_a_knot():
     assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
 
 
+def test_a_chain_whose_tips_no_ladder_leaves_starts_with_a_knot():
+    """Two horse's legs joined at the top, hoof to hoof (156 vertices, both ends blunt and
+    stepped): no arm leaves either tip, so a chain cannot start with one. It starts with a
+    knot instead: a hoof cut off a few widths up (at most a third of the polygon, meshed by the
+    paper's construction), a ladder from that cut up the legs, and the rest behind it meshed
+    as one part. Checked from outside: convex counter-clockwise quads, every new angle in
+    [60°, 120°], conformity, the boundary exactly the polygon's, the area exact."""
+    from types import SimpleNamespace
+
+    from quadmesh.families import images
+    from quadmesh.pipeline import CHAIN_KNOT_SHARE, _mesh_chain
+    from quadmesh.result import MeshOptions
+    from quadmesh.thin.corridor import arm_and_body, corridor_tips
+
+    horse = next(m for m in images(0) if m.name == "horse_0").vertices
+    leg = horse[491:570, 0] + 1j * horse[491:570, 1]  # down, round the hoof, up (y down)
+    top = (leg[0] + leg[-1]) / 2
+    w = np.r_[leg, 2 * top - leg[1:-1]]  # the leg turned half round about its top's middle
+    poly = validate_polygon(np.column_stack([w.real, w.imag]))
+    assert np.array_equal(poly.z, w)
+    hooves = {47, 125}
+    assert set(corridor_tips(poly.z)) == hooves
+    assert arm_and_body(poly.z) is None
+    got = _mesh_chain(SimpleNamespace(polygon=poly), MeshOptions(), None)
+    assert got is not None
+    asm, pieces, thin, dec = got
+    assert pieces and [t.kind for t in thin].count("corridor") >= 1
+    # the first knot is a hoof's end, at most a third of the polygon
+    knot = dec.polygon.z
+    assert knot.size <= poly.n // CHAIN_KNOT_SHARE + 2
+    assert any(np.any(np.isclose(knot, poly.z[h], rtol=0, atol=1e-9)) for h in hooves)
+    quads, src = asm.all_quads()
+    assert set(np.unique(src)) >= {3}
+    z = asm.vertices()
+    lo, hi = independent_check(poly.vertices, np.column_stack([z.real, z.imag]), quads, 1e-5)
+    assert lo >= 60 - 1e-5 and hi <= 120 + 1e-5
+
+
 def test_a_morph_between_two_rungs_tilts_rows_where_the_cells_have_room():
     """A run of ladder cells between two rungs whose points are fixed (same count, different
     spacing) moves its rows from one spacing to the other along the run. Two of its cells
