@@ -275,8 +275,7 @@ def ladder_layout(
         raise ThinPartError("the corridor's two tips coincide")
     poly = shapely.Polygon(np.column_stack([z.real, z.imag]))
     shapely.prepare(poly)
-    boundary = poly.exterior
-    shapely.prepare(boundary)
+    walls = _Walls(z)
     diam = float(np.ptp(z.real) + np.ptp(z.imag))
 
     # --- walls: vertex sequences, local widths, sampled points -------------------------
@@ -306,6 +305,7 @@ def ladder_layout(
         ]
     )
     wfloor = 0.25 * float(np.median(wall_d))
+    near = 4.0 * float(np.median(wall_d))  # rays cast this long first (see _Walls.first_hits)
     samples: list[complex] = []
     sample_edge: list[int] = []
 
@@ -327,7 +327,9 @@ def ladder_layout(
         # where rays from the opposite wall's vertices (along their angle bisectors, and
         # turned by ±20°) first meet this wall
         line = shapely.LineString(np.column_stack([P.real, P.imag]))
-        foot = _ray_hits(other_pts, boundary, line, diam)
+        place = np.full(n, -1, dtype=np.int64)  # polygon edge -> segment of this chain
+        place[seq[:-1] if forward else seq[1:]] = np.arange(seg.size)
+        foot = _ray_hits(other_pts, walls, line, (place, P, cum), diam, near)
         sig = np.concatenate([sig_u, foot])
         tol = 1e-6 * float(np.median(w))
         gap = 0.01 * float(np.median(w))  # no rung end within 1 % of a width of another
@@ -359,7 +361,7 @@ def ladder_layout(
         th = np.concatenate([theta[seq[1:-1]], np.full(sig.size, 180.0)])[order]
         nxt = np.concatenate([unit[1:], unit[se]])[order]
         normal = nxt * (1j if forward else -1j)  # into the corridor
-        width = _facing_distance(pos, normal, boundary, wfloor, diam)
+        width = _facing_distance(pos, normal, walls, wfloor, diam, near)
         return _Chain(pos, gid, isv, th, nxt, all_sig[order], np.cumsum(isv), width)
 
     bis = np.exp(1j * np.radians(theta) / 2) * (np.roll(z, -1) - z)
@@ -768,9 +770,86 @@ def ladder_layout(
     )
 
 
-def _ray_hits(origin_dir, boundary, line, reach: float) -> np.ndarray:
+class _Walls:
+    """The polygon's edges for ray casts: the vertices ``z`` and an STR tree of the edges, so
+    that each ray is tested against the few edges near it (GEOS's intersection of a ray with
+    the whole ring tests every edge: 35 ms per 4,500 rays on a 1,600-vertex river)."""
+
+    def __init__(self, z: np.ndarray) -> None:
+        self.z = np.asarray(z, dtype=np.complex128)
+        a, b = self.z, np.roll(self.z, -1)
+        self.tree = shapely.STRtree(
+            shapely.linestrings(
+                np.stack([np.column_stack([a.real, a.imag]), np.column_stack([b.real, b.imag])], 1)
+            )
+        )
+
+    def first_hits(
+        self, p0: np.ndarray, u: np.ndarray, reach: float, near: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per ray p0 + s·u (unit directions ``u``, 0 ≤ s ≤ ``reach``), the distance s of its
+        first point on an edge (inf where it meets none) and that edge (−1 where none). Rays
+        are cast ``near`` long first (a long ray's box holds most of the polygon's edges),
+        then the rest full length."""
+        s_first = np.full(p0.size, np.inf)
+        edge = np.full(p0.size, -1, dtype=np.int64)
+        todo = np.arange(p0.size)
+        for length in (near, reach) if near < reach else (reach,):
+            if todo.size == 0:
+                break
+            s_first[todo], edge[todo] = self._cast(p0[todo], length * u[todo])
+            todo = todo[edge[todo] < 0]
+        return s_first, edge
+
+    def _cast(self, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per segment a -> a + d, the distance from a of its first point on an edge (inf where
+        it meets none) and that edge (−1)."""
+        dist = np.full(a.size, np.inf)
+        edge = np.full(a.size, -1, dtype=np.int64)
+        if a.size == 0:
+            return dist, edge
+        b = a + d
+        rays = shapely.linestrings(
+            np.stack([np.column_stack([a.real, a.imag]), np.column_stack([b.real, b.imag])], 1)
+        )
+        ri, si = self.tree.query(rays, predicate="intersects")
+        if ri.size == 0:
+            return dist, edge
+        aa, dd = a[ri], d[ri]
+        e0 = self.z[si]
+        e = np.roll(self.z, -1)[si] - e0
+        w = e0 - aa
+        den = (np.conj(dd) * e).imag  # cross(d, e)
+        flat = np.abs(den) <= 1e-12 * np.abs(dd) * np.abs(e)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(flat, np.inf, (np.conj(w) * e).imag / den)  # cross(w, e) / cross(d, e)
+        if np.any(flat):
+            # an edge along the segment: its nearer end (or the segment's start, inside it)
+            n2 = np.abs(dd[flat]) ** 2
+            t0 = (np.conj(dd[flat]) * w[flat]).real / n2
+            t1 = (np.conj(dd[flat]) * (w[flat] + e[flat])).real / n2
+            t[flat] = np.maximum(np.minimum(t0, t1), 0.0)
+        s_hit = np.clip(t, 0.0, 1.0) * np.abs(dd)
+        order = np.lexsort((s_hit, ri))
+        first = order[np.r_[True, ri[order][1:] != ri[order][:-1]]]
+        dist[ri[first]] = s_hit[first]
+        edge[ri[first]] = si[first]
+        return dist, edge
+
+
+def _ray_hits(
+    origin_dir,
+    walls: _Walls,
+    line,
+    chain: tuple[np.ndarray, np.ndarray, np.ndarray],
+    reach: float,
+    near: float,
+) -> np.ndarray:
     """Arc-length positions on ``line`` (a wall chain) of the first boundary points hit by rays
-    from the given points along the given directions turned by 0° and ±20°."""
+    from the given points along the given directions turned by 0° and ±20° (cast ``near``
+    long first, see :meth:`_Walls.first_hits`). ``chain``: per polygon edge its segment of the
+    chain (−1 off it), and the chain's points and their arc lengths; a hit on another edge
+    counts where it lies on the line all the same (at a chain's end vertex)."""
     pts, d = origin_dir
     if pts.size == 0:
         return np.zeros(0)
@@ -778,31 +857,31 @@ def _ray_hits(origin_dir, boundary, line, reach: float) -> np.ndarray:
     o = np.repeat(pts, turns.size)
     u = (d[:, None] * turns[None, :]).ravel()
     eps = 1e-9 * reach
-    p0, p1 = o + eps * u, o + reach * u
-    rays = shapely.linestrings(
-        np.stack([np.column_stack([p0.real, p0.imag]), np.column_stack([p1.real, p1.imag])], 1)
-    )
-    hit = shapely.intersection(rays, boundary)
-    first = shapely.shortest_line(shapely.points(p0.real, p0.imag), hit)
-    ok = ~shapely.is_empty(hit)
-    q = shapely.get_coordinates(shapely.get_point(first[ok], 1))
-    qp = shapely.points(q[:, 0], q[:, 1])
-    on = shapely.distance(qp, line) < 1e-9 * reach
-    return np.asarray(shapely.line_locate_point(line, qp[on]), dtype=float)
+    p0 = o + eps * u
+    dist, edge = walls.first_hits(p0, u, reach - eps, near)
+    ok = edge >= 0
+    q, j = p0[ok] + dist[ok] * u[ok], chain[0][edge[ok]]
+    on = j >= 0
+    along = chain[2][j[on]] + np.abs(q[on] - chain[1][j[on]])
+    off = q[~on]
+    if off.size:
+        qp = shapely.points(off.real, off.imag)
+        at_line = shapely.distance(qp, line) < 1e-9 * reach
+        along = np.r_[along, np.asarray(shapely.line_locate_point(line, qp[at_line]), float)]
+    return along
 
 
-def _facing_distance(pos, normal, boundary, floor: float, reach: float) -> np.ndarray:
+def _facing_distance(
+    pos, normal, walls: _Walls, floor: float, reach: float, near: float
+) -> np.ndarray:
     """Width of the corridor at each wall point: the distance along the inward normal to the
-    first point of the polygon's boundary (a ray cast), at least ``floor``."""
+    first point of the polygon's boundary (a ray cast, ``near`` long first), at least
+    ``floor``."""
     eps = 1e-9 * reach
     p0 = pos + eps * normal
-    p1 = pos + reach * normal
-    rays = shapely.linestrings(
-        np.stack([np.column_stack([p0.real, p0.imag]), np.column_stack([p1.real, p1.imag])], 1)
-    )
-    hit = shapely.intersection(rays, boundary)
-    d = shapely.distance(shapely.points(pos.real, pos.imag), hit)
-    d = np.where(np.isfinite(d) & ~shapely.is_empty(hit), d, reach)
+    dist, _edge = walls.first_hits(p0, normal, reach - eps, near)
+    with np.errstate(invalid="ignore"):
+        d = np.where(np.isfinite(dist), np.abs(p0 + dist * normal - pos), reach)
     return np.maximum(d, floor)
 
 
