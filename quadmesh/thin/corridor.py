@@ -522,6 +522,12 @@ def ladder_layout(
         else:
             nin = (L.vrank[-1] - L.vrank[pa]) + (R.vrank[-1] - R.vrank[pb])
             near = (L.sigma[-1] - L.sigma[pa] <= 4 * wmed) & (R.sigma[-1] - R.sigma[pb] <= 4 * wmed)
+        # a round cap's every point lies within 25 % of the rung's half-length from the
+        # rung's midpoint (:func:`_round_cap_cost`): the tip first, for all rungs at once
+        mid, half = 0.5 * (L.pos[pa] + R.pos[pb]), 0.5 * np.abs(L.pos[pa] - R.pos[pb])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rad = np.abs(z[s if end == 0 else e] - mid) / half
+        near &= (rad >= 0.8 * (1 - 1e-9)) & (rad <= 1.25 * (1 + 1e-9))
         for r in np.flatnonzero(near & (nin >= 1) & (nin <= 96)):
             a, b = int(pa[r]), int(pb[r])
             if end == 0:
