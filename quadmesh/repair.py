@@ -222,6 +222,8 @@ def _solve_region(
     # local length scale per region vertex: shortest incident edge
     e = z0[qq] - z0[np.roll(qq, -1, axis=1)]
     elen = np.abs(e).ravel()
+    if not np.all(elen > 0):
+        return None  # a quad with coincident corners (a crowded image): no angles to repair
     h = np.full(nv, np.inf)
     np.minimum.at(h, qq.ravel(), elen)
     np.minimum.at(h, np.roll(qq, -1, axis=1).ravel(), elen)
