@@ -397,7 +397,7 @@ def test_a_bridge_is_tried_when_the_disk_construction_fails_from_crowding(monkey
     is solved but the disk construction cannot place its arcs (arcs of 1e-16 rad); bridges were
     tried only after a failed map. A bridge across the stem meshes it (87,615 quads). Arms come
     first, and since an arm's ladder stops one and a half of its own widths before it gets
-    stuck (not of the walls' median width, which a wide body sets), "h" has four arms off its
+    stuck (not of the walls' median width, which a wide body sets), "h" has arms off its
     serifs and stems and meshes with fewer quads (77,949); the bridge is checked with arms
     switched off."""
     import quadmesh.pipeline as pipeline
