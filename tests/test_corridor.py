@@ -956,3 +956,47 @@ def test_a_morph_between_two_rungs_tilts_rows_where_the_cells_have_room():
     by_room = angles(_run_params(lay, 0.05, dict(fixed), tilt=True))
     assert by_room.min() >= 60.0 - 1e-9 and by_room.max() <= 120.0 + 1e-9
     assert np.all(by_room[[0, 1, 4, 5]].max(axis=(1, 2)) < 110.0)  # the rectangles carry it
+
+
+def test_wall_ray_casts_find_the_first_boundary_point_as_geos_does():
+    """The ladder's ray casts (an STR tree of the edges, short rays first) give, for rays from
+    inside and from the walls of a ragged river and a spiky star, in random directions, the same
+    first boundary point as GEOS's intersection of the full ray with the whole ring (the
+    nearest intersection point to the ray's start), and no hit exactly where GEOS finds none;
+    the edge reported holds that point."""
+    from quadmesh.families import river
+    from quadmesh.thin.corridor import _Walls
+
+    rng = np.random.default_rng(5)
+    m = river(np.random.default_rng([8, 99]), n_vertices=300, ratio=20)
+    rv = m.vertices[:, 0] + 1j * m.vertices[:, 1]
+    k = np.arange(40)
+    star = (1 + 0.6 * (k % 2)) * np.exp(2j * np.pi * k / 40)
+    for z in (rv, star):
+        diam = float(np.ptp(z.real) + np.ptp(z.imag))
+        walls = _Walls(z)
+        ring = shapely.LinearRing(np.column_stack([z.real, z.imag]))
+        # starts: random points inside, and the midpoints of the edges (rays from a wall)
+        bx = rng.uniform(z.real.min(), z.real.max(), 400)
+        by = rng.uniform(z.imag.min(), z.imag.max(), 400)
+        keep = shapely.contains_xy(shapely.Polygon(ring), bx, by)
+        mids = 0.5 * (z + np.roll(z, -1))
+        pts = np.r_[bx[keep] + 1j * by[keep], mids + 1e-9 * diam * 1j * (np.roll(z, -1) - z)]
+        u = np.exp(2j * np.pi * rng.uniform(size=pts.size))
+        near = 0.05 * diam
+        dist, edge = walls.first_hits(pts, u, diam, near)
+        p1 = pts + diam * u
+        rays = shapely.linestrings(
+            np.stack(
+                [np.column_stack([pts.real, pts.imag]), np.column_stack([p1.real, p1.imag])], 1
+            )
+        )
+        hit = shapely.intersection(rays, ring)
+        geos = shapely.distance(shapely.points(pts.real, pts.imag), hit)
+        found = ~shapely.is_empty(hit)
+        assert np.array_equal(np.isfinite(dist), found)
+        assert np.allclose(dist[found], geos[found], rtol=0, atol=1e-12 * diam)
+        q = pts[found] + dist[found] * u[found]
+        a, b = z[edge[found]], np.roll(z, -1)[edge[found]]
+        off = np.abs(((q - a) * np.conj(b - a)).imag) / np.abs(b - a)
+        assert off.max() <= 1e-12 * diam
