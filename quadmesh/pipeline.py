@@ -968,18 +968,20 @@ def _chain_knot_start(z: np.ndarray, part):
     """The first knot of a chain whose tips no arm leaves: at either end of the polygon's
     longest stretch, the nearest tip cut (:func:`~quadmesh.thin.corridor.tip_cuts`) from which
     a ladder leaves and whose knot meshes (``part``) with its points on the cut taken by the
-    ladder's first rung. Returns (the knot's result, (ladder, capped rest, body behind it)) or
-    None."""
+    ladder's first rung (at most :data:`KNOT_CUTS` knots meshed per tip). Returns (the knot's
+    result, (ladder, capped rest, body behind it)) or None."""
     from .thin.corridor import bridge_layout, corridor_tips, tip_cuts
 
     limit = z.size // CHAIN_KNOT_SHARE
     for s in dict.fromkeys(corridor_tips(z)):
+        meshes = KNOT_CUTS  # knots meshed per tip, as for knotted arms
         for rc in tip_cuts(z, s, widths=CHAIN_KNOT_WIDTHS):
-            if rc.knot.size > limit:
+            if rc.knot.size > limit or meshes <= 0:
                 break
             got = bridge_layout(rc.rest, min_rungs=KNOT_MIN_RUNGS, own_width=True)
             if got is None:
                 continue
+            meshes -= 1
             knot_r = part(rc.knot)
             if knot_r is not None and _rung_ids(got[0], knot_r, 0) is not None:
                 return knot_r, got
