@@ -305,7 +305,7 @@ def ladder_layout(
         ]
     )
     wfloor = 0.25 * float(np.median(wall_d))
-    near = 4.0 * float(np.median(wall_d))  # rays cast this long first (see _Walls.first_hits)
+    cast_first = 4.0 * float(np.median(wall_d))  # rays this long first (_Walls.first_hits)
     samples: list[complex] = []
     sample_edge: list[int] = []
 
@@ -329,7 +329,7 @@ def ladder_layout(
         line = shapely.LineString(np.column_stack([P.real, P.imag]))
         place = np.full(n, -1, dtype=np.int64)  # polygon edge -> segment of this chain
         place[seq[:-1] if forward else seq[1:]] = np.arange(seg.size)
-        foot = _ray_hits(other_pts, walls, line, (place, P, cum), diam, near)
+        foot = _ray_hits(other_pts, walls, line, (place, P, cum), diam, cast_first)
         sig = np.concatenate([sig_u, foot])
         tol = 1e-6 * float(np.median(w))
         gap = 0.01 * float(np.median(w))  # no rung end within 1 % of a width of another
@@ -361,7 +361,7 @@ def ladder_layout(
         th = np.concatenate([theta[seq[1:-1]], np.full(sig.size, 180.0)])[order]
         nxt = np.concatenate([unit[1:], unit[se]])[order]
         normal = nxt * (1j if forward else -1j)  # into the corridor
-        width = _facing_distance(pos, normal, walls, wfloor, diam, near)
+        width = _facing_distance(pos, normal, walls, wfloor, diam, cast_first)
         return _Chain(pos, gid, isv, th, nxt, all_sig[order], np.cumsum(isv), width)
 
     bis = np.exp(1j * np.radians(theta) / 2) * (np.roll(z, -1) - z)
