@@ -292,7 +292,7 @@ def _fermat_room(z: NDArray[np.complex128], spec: NDArray[np.int64]) -> NDArray[
         return np.zeros((*z.shape[:-1], 0))
     q, x = z[..., spec[:, 0]], z[..., spec[:, 1:]]
     near = np.abs(x - q[..., None]).min(axis=-1)
-    side = np.abs(x - np.roll(x, 1, axis=-1)).min(axis=-1)
+    side = np.abs(x - z[..., spec[:, [3, 1, 2]]]).min(axis=-1)  # each neighbour to the one before
     return 100.0 * (near / side - FERMAT_ROOM)
 
 
@@ -559,8 +559,8 @@ def _polish(
     point 0 (it moves in the plane) or the unit direction of the straight wall it stays on.
     ``hints``: the offsets found for earlier pairs of the same cascade, most recent last;
     the pairs of one cascade are nearly alike, so an offset that gives this pair the margin
-    the optimisation stops at is taken without optimising (measured: 82 of 128 pairs of a
-    glyph's and a random walk's cascades), and the offsets found here are added to them.
+    the optimisation stops at is taken without optimising (measured: 37 of 68 pairs on STIX
+    "A", 75 of 128 on a random walk), and the offsets found here are added to them.
 
     A soft minimum of the margins (log-sum-exp at temperatures 3°, 1°, 0.3°, BFGS) leads to
     the neighbourhood of the best placement, then SLSQP on the epigraph form (maximise t with
@@ -591,13 +591,11 @@ def _polish(
         return zz if x.ndim == 2 else zz[0]
 
     # the corners whose angles count (as :func:`quad_angles_deg` measures them: from the edge
-    # to the next corner to the edge to the previous one) and the Fermat points' neighbours
-    # (as :func:`_fermat_room`), indexed once: margins() runs a few hundred times per pair
+    # to the next corner to the edge to the previous one), indexed once: margins() runs a few
+    # hundred times per pair
     counted = ~exact
     k_at = quads[counted]
     k_next, k_prev = quads[:, [1, 2, 3, 0]][counted], quads[:, [3, 0, 1, 2]][counted]
-    f_q, f_x = spec[:, 0], spec[:, 1:]
-    f_roll = np.roll(f_x, 1, axis=1)
 
     def margins(x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The margins for the offsets ``x`` (2·nf,), or per row of ``x`` (B, 2·nf)."""
@@ -606,11 +604,7 @@ def _polish(
         ang = np.angle(-(za - zz[:, k_prev]) * np.conj(zz[:, k_next] - za))
         ang[ang < 0] += 2 * np.pi
         a = np.degrees(ang, out=ang)
-        xs = zz[:, f_x]
-        near = np.abs(xs - zz[:, f_q][..., None]).min(axis=-1)
-        side = np.abs(xs - zz[:, f_roll]).min(axis=-1)
-        room = 100.0 * (near / side - FERMAT_ROOM)
-        m = np.concatenate([a - 60.0, 120.0 - a, room], axis=1)
+        m = np.concatenate([a - 60.0, 120.0 - a, _fermat_room(zz, spec)], axis=1)
         m = np.where(np.isfinite(m), m, -180.0)
         return m if x.ndim == 2 else m[0]
 

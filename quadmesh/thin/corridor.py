@@ -783,6 +783,7 @@ class _Walls:
 
     def __init__(self, z: np.ndarray) -> None:
         self.z = np.asarray(z, dtype=np.complex128)
+        self.e = np.roll(self.z, -1) - self.z  # edge k from z[k] to z[k + 1]
         a, b = self.z, np.roll(self.z, -1)
         self.tree = shapely.STRtree(
             shapely.linestrings(
@@ -822,8 +823,7 @@ class _Walls:
         if ri.size == 0:
             return dist, edge
         aa, dd = a[ri], d[ri]
-        e0 = self.z[si]
-        e = np.roll(self.z, -1)[si] - e0
+        e0, e = self.z[si], self.e[si]
         w = e0 - aa
         den = (np.conj(dd) * e).imag  # cross(d, e)
         flat = np.abs(den) <= 1e-12 * np.abs(dd) * np.abs(e)
