@@ -67,6 +67,14 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
             out.append(("block_layout", label, BLOCK_COLORS["cuts"]))
         if len(block_layout_edges(layout)[0]):
             out.append(("block_layout", "coarse cell edge", BLOCK_COLORS["cell edges"]))
+        if getattr(layout, "fallback_faces", ()):
+            out.append(
+                (
+                    "block_layout",
+                    "face meshed by the paper's construction",
+                    BLOCK_COLORS["fallback faces"],
+                )
+            )
     if getattr(result, "decomposition", None) is None:
         return out
     if "thick_pieces" in visible:

@@ -52,17 +52,27 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import Bounds, LinearConstraint, milp, minimize
 from scipy.sparse import coo_matrix
 
-from .cells import ANGLE_MAX, ANGLE_MIN, LayoutRefinement, cell_angles, refine_layout
+from .cells import (
+    ANGLE_MAX,
+    ANGLE_MIN,
+    LayoutRefinement,
+    cell_angles,
+    layout_chords,
+    refine_layout,
+)
 from .errors import QuadmeshError
 from .polygon import interior_angles
 from .progress import checkpoint
+from .transition import TransitionMesh
 
 __all__ = [
     "BlockLayout",
     "BlockLayoutError",
+    "PartialLayout",
     "block_layout",
     "default_block_size",
     "mesh_blocks",
+    "mesh_partial_layout",
 ]
 
 #: corners of the coarse layout keep this distance (degrees) from 60° and 120°
@@ -131,6 +141,20 @@ LADDER_SECONDS_PER_VERTEX = 0.02
 LADDER_SECTOR_CHORDS = (16, 8)
 #: a ladder mesh is used only if no edge is longer than this many times the target size
 LADDER_MAX_EDGE = 2.5
+#: cost of a cut slot left without a cut in the relaxed search for a partial layout (a cut
+#: costs about its length over the diameter, at most a few units)
+UNSERVED_COST = 20.0
+#: wall-clock seconds of the relaxed search (:func:`mesh_partial_layout`)
+RELAXED_SECONDS = 1.0
+#: the faces that fall back may have at most this share of the polygon's vertex count in all
+#: (corners and points on their sides): the paper's construction costs about a thousand quads
+#: per vertex, so larger faces would give as many quads as meshing the whole polygon by it
+FALLBACK_SHARE = 0.5
+#: a mesh with faces that fall back is kept only with at most this many quads per polygon
+#: vertex (the paper's construction on the whole polygon makes 600-1,000)
+FALLBACK_MAX_PER_VERTEX = 500
+#: times the cells of chords between two faces that fall back are joined to those faces
+MAX_FALLBACK_MERGES = 6
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -166,6 +190,11 @@ class BlockLayout:
         kites: True when the tips were cut off by tip kites (:func:`block_layout`), each
             tip the corner of one small kite cell rather than of a block reaching across.
         junctions: interior points where three or four cuts meet (:func:`_junctions`).
+        fallback_faces: faces of a straight-cut layout that could not be split into cells and
+            were meshed by the paper's construction instead, each glued to the cells around it
+            (:func:`mesh_partial_layout`): (k,) complex polygons, their corners and every
+            layout point on their sides.
+        fallback_quads: how many quads of the mesh those faces hold (the mesh's last ones).
     """
 
     polygon: NDArray[np.complex128]
@@ -181,6 +210,8 @@ class BlockLayout:
     kind: str = "cuts"
     kites: bool = False
     junctions: int = 0
+    fallback_faces: tuple[NDArray[np.complex128], ...] = ()
+    fallback_quads: int = 0
 
     @property
     def n_cells(self) -> int:
@@ -1114,24 +1145,31 @@ def _solve(
     nogoods: list[list[int]],
     seconds: float = SEARCH_SECONDS,
     rel_gap: float | None = None,
+    unserved_cost: float | None = None,
 ) -> list[int] | None:
     """The cheapest choice of candidate cuts: one per cut slot, no conflicting pair, every
     T-junction on a chosen cut that reaches past it, no ``nogoods`` set in full; within
-    ``rel_gap`` of the optimum when given.  None if there is none (or none within
-    ``seconds``)."""
+    ``rel_gap`` of the optimum when given.  With ``unserved_cost`` a slot may also stay
+    without a cut, at that cost.  None if there is none (or none within ``seconds``)."""
     nr = len(rays)
+    n_var = nr + (len(slots) if unserved_cost is not None else 0)
     sid = {s: k for k, s in enumerate(slots)}
     rows, cols = [], []
     for c, r in enumerate(rays):
         for s in r.slots:
             rows.append(sid[s])
             cols.append(c)
-    A_eq = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(slots), nr))
+    if unserved_cost is not None:  # one slack variable per slot
+        rows += list(range(len(slots)))
+        cols += list(range(nr, n_var))
+    A_eq = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(slots), n_var))
     cons = [LinearConstraint(A_eq, 1, 1)]
     if bad:
         bb = np.array(bad)
         k = len(bb)
-        A_b = coo_matrix((np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, nr))
+        A_b = coo_matrix(
+            (np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, n_var)
+        )
         cons.append(LinearConstraint(A_b, -np.inf, 1))
     # a T-variant needs a chosen version of the ray it stops on that reaches past its end
     tee = np.array([r.stop for r in rays])
@@ -1148,17 +1186,19 @@ def _solve(
         t_cols += [int(c), *past.tolist()]
         t_vals += [1.0] + [-1.0] * len(past)
     if t_rows:
-        A_t = coo_matrix((t_vals, (t_rows, t_cols)), shape=(max(t_rows) + 1, nr))
+        A_t = coo_matrix((t_vals, (t_rows, t_cols)), shape=(max(t_rows) + 1, n_var))
         cons.append(LinearConstraint(A_t, -np.inf, 0))
     for ng in nogoods:
-        row = np.zeros(nr)
+        row = np.zeros(n_var)
         row[ng] = 1
         cons.append(LinearConstraint(row[None, :], -np.inf, len(ng) - 1))
     cost = np.array([r.cost for r in rays])
+    if unserved_cost is not None:
+        cost = np.concatenate([cost, np.full(len(slots), unserved_cost)])
     res = milp(
         cost,
         constraints=cons,
-        integrality=np.ones(nr),
+        integrality=np.ones(n_var),
         bounds=Bounds(0, 1),
         options={"time_limit": max(seconds, 0.1)}
         # (HiGHS's presolve spends a second on the dense rows of the junction search)
@@ -1168,7 +1208,7 @@ def _solve(
     # limit was reached with a feasible solution)
     if res.x is None or not (res.status == 0 or (rel_gap is not None and res.status == 1)):
         return None
-    return [int(c) for c in np.nonzero(res.x > 0.5)[0]]
+    return [int(c) for c in np.nonzero(res.x[:nr] > 0.5)[0]]
 
 
 # --------------------------------------------------------------------------- arrangement
@@ -1682,7 +1722,9 @@ def _resolve_hanging(
 # --------------------------------------------------------------------------- the layout
 
 
-def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
+def block_layout(
+    polygon: ArrayLike, size: float | None = None, partial: list[PartialLayout] | None = None
+) -> BlockLayout:
     """A coarse layout of admissible cells for a counter-clockwise simple polygon.
 
     A polygon corner below 60° (a *tip*) is first cut off by a *tip kite* (:func:`_tip_kite`):
@@ -1704,6 +1746,9 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
         size: the block size the layout will be refined to (default
             :func:`default_block_size`); it sets the size of the tip kites.
+        partial: when given (a list), the round of the straight-cut searches without tip
+            kites that left the fewest faces unsplit is kept in it
+            (:class:`PartialLayout`), for :func:`mesh_partial_layout`.
 
     Returns:
         A :class:`BlockLayout` whose cells are convex, counter-clockwise, conforming, cover the
@@ -1723,7 +1768,7 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
         if lay is not None:
             return lay
     try:
-        return _cut_layout(z)
+        return _cut_layout(z, partial=partial)
     except BlockLayoutError as exc:
         if "would be needed" in exc.args[0]:
             raise
@@ -1735,7 +1780,7 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
         if lay is not None:
             return lay
     try:
-        return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True)
+        return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True, partial=partial)
     except BlockLayoutError as exc:
         error_j = exc
     # last: faces whose split about a centre SLSQP did not find from the centroids get a
@@ -1749,7 +1794,7 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
             return lay
     if _rounds_ended_on_faces(error):
         try:
-            return _cut_layout(z, sample=True)
+            return _cut_layout(z, sample=True, partial=partial)
         except BlockLayoutError:
             pass
     if len(tips):
@@ -1758,7 +1803,9 @@ def block_layout(polygon: ArrayLike, size: float | None = None) -> BlockLayout:
             return lay
     if _rounds_ended_on_faces(error_j):
         try:
-            return _cut_layout(z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True, sample=True)
+            return _cut_layout(
+                z, seconds=JUNCTION_LAYOUT_SECONDS, junctions=True, sample=True, partial=partial
+            )
         except BlockLayoutError:
             pass
     raise error
@@ -1799,6 +1846,8 @@ def _cut_layout(
     tee_rays: int = MAX_RAYS_FOR_TEES,
     more_tees: bool = False,
     sample: bool = False,
+    partial: list[PartialLayout] | None = None,
+    relax: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
@@ -1818,7 +1867,10 @@ def _cut_layout(
     :data:`MAX_RAYS_FOR_TEES` (else it would repeat the search with the default limit).
     ``sample``: faces whose split about a centre SLSQP does not find from their centroids get
     a sampled search over centres and side points (:func:`_sampled_split`) before they count
-    as failed."""
+    as failed.  ``partial``: a list into which the round that left the fewest faces unsplit
+    is kept (:class:`PartialLayout`, one item at most).  ``relax``: a corner may keep a cut
+    slot without a cut (at :data:`UNSERVED_COST`; its face then cannot split and is kept as
+    a partial layout's face to fall back), no T-junction candidates."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
@@ -1856,7 +1908,7 @@ def _cut_layout(
     tee_rays: list[_Ray] | None = None
     stars: list[_Ray] = []
     first = 0
-    if missing and small:
+    if missing and small and not relax:
         # corners whose every cut meets the boundary badly may still end a cut on another one
         tee_rays = _t_variants(z, rays, diam, bare=bare)
         covered |= {s for r in tee_rays for s in r.slots}
@@ -1869,7 +1921,7 @@ def _cut_layout(
             if not stars:  # the search would be the one that already failed
                 raise BlockLayoutError("no junction of three or more cuts fits in the polygon")
         missing = [s for s in slots if s not in covered]
-    if missing:
+    if missing and not relax:
         vs = sorted({i for i, _ in missing})
         raise BlockLayoutError(
             "no straight cut from the corner"
@@ -1883,7 +1935,8 @@ def _cut_layout(
     has_slot = np.zeros(n, dtype=bool)
     has_slot[[i for i, _ in slots]] = True
     problems: list[str] = []
-    for stage in [2] if junctions else range(first, (1 if small else 0) + 1):
+    stages = [2] if junctions else [0] if relax else range(first, (1 if small else 0) + 1)
+    for stage in stages:
         if stage >= 1 and tee_rays is None:
             tee_rays = _t_variants(z, rays, diam, bare=bare)
         left = deadline - time.perf_counter()
@@ -1907,6 +1960,8 @@ def _cut_layout(
             JUNCTION_GAP if stage == 2 else None,
             separate,
             sample,
+            partial,
+            relax,
         )
         if lay is not None:
             return lay
@@ -2075,10 +2130,12 @@ def _search(
     rel_gap: float | None = None,
     separate: bool = False,
     sample: bool = False,
+    partial: list[PartialLayout] | None = None,
+    relax: bool = False,
 ) -> BlockLayout | None:
     """Rounds of the cut search over the candidate ``rays`` (see :func:`block_layout`;
-    ``kites``, ``seconds``, ``separate`` and ``sample`` as in :func:`_cut_layout`, ``rel_gap``
-    as in :func:`_solve`)."""
+    ``kites``, ``seconds``, ``separate``, ``sample``, ``partial`` and ``relax`` as in
+    :func:`_cut_layout`, ``rel_gap`` as in :func:`_solve`)."""
     n = len(z)
     bad = _conflicts(z, rays, diam) if rays else []
     if any(r.arms for r in rays):
@@ -2097,7 +2154,11 @@ def _search(
         if left <= 0:
             problems.append(f"no layout within {seconds:.3g} s of search")
             return None
-        chosen = _solve(rays, slots, bad, nogoods, left, rel_gap) if slots else []
+        chosen = (
+            _solve(rays, slots, bad, nogoods, left, rel_gap, UNSERVED_COST if relax else None)
+            if slots
+            else []
+        )
         checkpoint()
         if chosen is None:
             return None
@@ -2181,6 +2242,9 @@ def _search(
                     angles=cell_angles(X[cells]),
                 )
         problems.append(f"{len(wrong)} face(s) could not be split into cells")
+        if partial is not None and not kites.cells:
+            cuts = [[_p0(z, r), r.end] for r in _segments(sel)[0]]
+            _keep_partial(partial, z, P, faces, wrong, pm, own, cuts)
         for fi in wrong:
             ng = sorted(chosen[k] for k in face_rays[fi])
             if not ng:
@@ -2226,8 +2290,555 @@ def _chord_faces(
     return sorted(whole), sorted(wrong)
 
 
+# --------------------------------------------------------------------------- faces that fall back
+
+
+@dataclass(frozen=True)
+class PartialLayout:
+    """A round of the straight-cut search whose cuts closed but whose faces did not all split
+    into cells (:func:`_search`): the faces in ``wrong`` may be meshed by the paper's
+    construction and glued to the cells of the others (:func:`mesh_partial_layout`).
+
+    Attributes:
+        polygon: (n,) complex polygon vertices.
+        points: (P,) complex points of the arrangement of the cuts (``points[:n]`` the polygon's).
+        faces: the faces, each an int array of point indices (CCW, the far sides of
+            T-junctions left out).
+        wrong: indices of the faces that did not split (or had a corner out of range).
+        tip_mask: (P,) points whose corner only has to be above 0° (the polygon's tips).
+        own: (P,) uncut polygon corners, the far side of T-junctions and the hubs of
+            junctions (their angles are in range by construction).
+        cuts: (K, 2) complex end points of the round's cuts.
+    """
+
+    polygon: NDArray[np.complex128]
+    points: NDArray[np.complex128]
+    faces: tuple[NDArray[np.int64], ...]
+    wrong: frozenset[int]
+    tip_mask: NDArray[np.bool_]
+    own: NDArray[np.bool_]
+    cuts: NDArray[np.complex128] = field(default_factory=lambda: np.zeros((0, 2), complex))
+
+    @property
+    def score(self) -> tuple[int, int]:
+        """Fewer faces to fall back first, then fewer corners on them."""
+        return len(self.wrong), sum(len(self.faces[k]) for k in self.wrong)
+
+
+def _keep_partial(
+    partial: list[PartialLayout],
+    z: NDArray[np.complex128],
+    P: NDArray[np.complex128],
+    faces: list[NDArray[np.int64]],
+    wrong: list[int],
+    pm: NDArray[np.bool_],
+    own: NDArray[np.bool_],
+    cuts: list[list[complex]],
+) -> None:
+    """Keep this round in ``partial`` (one item) if its faces could fall back and it leaves
+    fewer of them than the round kept so far.  A face can fall back when none of its new
+    corners lies below 60° (the paper's construction keeps a corner up to 120° whole and
+    splits larger ones into parts in range, but cannot raise one below 60°)."""
+    n = len(z)
+    if not wrong or len(wrong) == len(faces):
+        return
+    cut_arr = np.array(cuts, dtype=np.complex128).reshape(-1, 2)
+    cand = PartialLayout(z, P, tuple(faces), frozenset(wrong), pm.copy(), own.copy(), cut_arr)
+    if partial and partial[0].score <= cand.score:
+        return
+    for k in wrong:
+        f = faces[k]
+        a = _angles_deg(P[f])
+        new = ~(own[f] | pm[f] | (f < n) & ~_cut_corner(z, f, n))
+        if np.any(new & (a < ANGLE_MIN - ANGLE_TOL)):
+            return
+    partial[:] = [cand]
+
+
+def _cut_corner(z: NDArray[np.complex128], f: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
+    """Of the points ``f``, the polygon corners above 120° (those that were cut); False for the
+    other points."""
+    theta = np.full(len(f), 0.0)
+    at = f < n
+    theta[at] = _angles_deg(z)[f[at]]
+    return at & (theta > ANGLE_MAX + ANGLE_TOL)
+
+
+def _points_on_sides(
+    X: NDArray[np.complex128], face: NDArray[np.int64], cand: NDArray[np.int64]
+) -> list[int]:
+    """The face's corners with the points ``cand`` of ``X`` that lie strictly inside its sides
+    (within 1e-9 of the side's length), in order around the face."""
+    a = X[face]
+    d = X[np.roll(face, -1)] - a
+    L2 = np.abs(d) ** 2
+    g, j = np.meshgrid(np.arange(len(face)), np.arange(len(cand)), indexing="ij")
+    gh, th, jh = _inside_sides(a, d, L2, X[cand], g.ravel(), j.ravel())
+    out: list[int] = []
+    for k in range(len(face)):
+        out.append(int(face[k]))
+        sel = gh == k
+        order = np.argsort(th[sel])
+        out.extend(int(c) for c in cand[jh[sel][order]] if c not in out)
+    return out
+
+
+#: a face mesh for :func:`mesh_partial_layout`: polygon in, (points, quads) or None out
+FaceMesher = Callable[
+    [NDArray[np.complex128]], tuple[NDArray[np.complex128], NDArray[np.int64]] | None
+]
+
+
+def mesh_partial_layout(
+    part: PartialLayout, size: float, mesh_face: FaceMesher
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
+    """A block mesh in which the faces that did not split fall back to another mesher.
+
+    The faces that split become cells (:func:`_split_cells`, T-junctions carried to the
+    boundary by :func:`_resolve_hanging`); every face of ``part.wrong`` (and any face whose
+    split fails now) is meshed on its own by ``mesh_face`` (the paper's construction), as the
+    polygon of its corners and every layout point on its sides.  The cell next to a face side
+    goes down from the face mesh's points on it to the count the size asks for by a
+    transition cascade where it has room (:func:`_transition_cells`, the cells after it along
+    the chord going on where it has not); elsewhere the face mesh's points become the side's
+    fixed parameters in :func:`quadmesh.cells.refine_layout`, so the chord through the cell
+    carries exactly those points across the layout (a grid line per point: every grid angle
+    stays in the range of its cell's corners).  The meshes meet by index.
+
+    A chord between two sides with fixed points (a strip of cells from one face to another, or
+    back to the same one) or one with fixed points through a tip's block (it must stay whole)
+    cannot be refined so: its cells join the faces that fall back (:func:`_merged_faces`) and
+    the faces are meshed again, at most :data:`MAX_FALLBACK_MERGES` times.
+
+    Returns ``(points, quads, layout, refinement)`` as :func:`mesh_blocks` does, the layout's
+    ``fallback_faces`` the faces meshed by ``mesh_face``; None when a face's mesh fails, the
+    merged faces are no simple polygons or hold more than :data:`FALLBACK_SHARE` of the
+    polygon's vertex count, or the merging does not settle.  The caller verifies the mesh."""
+    z = part.polygon
+    n = len(z)
+    P = part.points
+    good = [k for k in range(len(part.faces)) if k not in part.wrong]
+    gf = [part.faces[k] for k in good]
+    if all(len(f) == 4 for f in gf):
+        X, cells, bad = P, np.array(gf, dtype=np.int64).reshape(-1, 4), []
+    else:
+        X, cells, bad = _split_cells(P, gf, part.tip_mask, part.own, separate=True)
+        if bad:
+            # each face of k corners gave k consecutive cells
+            owner = np.repeat(np.arange(len(gf)), [len(f) for f in gf])
+            cells = cells[~np.isin(owner, bad)]
+    wrong = sorted(part.wrong | {good[b] for b in bad})
+    if len(cells) == 0:
+        return None
+    pm = np.zeros(len(X), dtype=bool)
+    pm[: len(part.tip_mask)] = part.tip_mask
+    fixed = _resolve_hanging(X, cells, pm)
+    if fixed is None:
+        return None
+    X, cells = fixed
+    used = np.unique(np.concatenate([cells.ravel(), np.arange(len(P))]))
+    face_ids = _merged_faces([_points_on_sides(X, part.faces[k], used) for k in wrong])
+    if face_ids is None:
+        return None
+    tips = np.flatnonzero(part.tip_mask[:n]).astype(np.int64)
+    meshed: dict[tuple[int, ...], tuple[NDArray[np.complex128], NDArray[np.int64], list]] = {}
+    for _ in range(MAX_FALLBACK_MERGES + 1):
+        if len(cells) == 0:
+            return None
+        ch = layout_chords(cells, len(X))
+        face_meshes = []
+        params: dict[tuple[int, int], NDArray[np.float64]] = {}
+        if sum(len(ids) for ids in face_ids) > FALLBACK_SHARE * n:
+            return None  # the paper's construction on the faces would cost as much as on all
+        for ids in face_ids:
+            if tuple(ids) not in meshed:
+                got = mesh_face(X[ids])
+                checkpoint()
+                if got is None:
+                    return None
+                fz = np.asarray(got[0], dtype=np.complex128)
+                fq = np.asarray(got[1], dtype=np.int64)
+                chains = _boundary_chains(fz, fq, X[ids])
+                if chains is None:
+                    return None
+                meshed[tuple(ids)] = (fz, fq, chains)
+            fz, fq, chains = meshed[tuple(ids)]
+            for (u, v), chain in zip(zip(ids, ids[1:] + ids[:1]), chains):
+                try:
+                    ch.edge_id(u, v)
+                except ValueError:
+                    continue  # a side on the polygon's boundary
+                d = X[v] - X[u]
+                t = ((fz[chain] - X[u]) * np.conj(d)).real / (abs(d) ** 2)
+                t[0], t[-1] = 0.0, 1.0
+                if np.any(np.diff(t) <= 0):
+                    return None
+                params[(u, v)] = t
+            face_meshes.append((ids, fz, fq, chains))
+        # a chord between two fixed sides (a strip of cells from one fallback face to another,
+        # or back to the same one) cannot carry both meshes' points, and one through a tip's
+        # block must stay whole: their cells join the faces that fall back
+        tip_cells = np.isin(cells, tips).any(axis=1)
+        tip_chords = set(np.unique(ch.cell_chords[tip_cells]).tolist())
+        on_chord: dict[int, int] = {}
+        for u, v in params:
+            k = ch.chord_of(u, v)
+            on_chord[k] = on_chord.get(k, 0) + 1
+        clash = [k for k, c in on_chord.items() if c > 1 or k in tip_chords]
+        if not clash:
+            break
+        merge = np.isin(ch.cell_chords, clash).any(axis=1)
+        face_ids = _merged_faces(face_ids + [c.tolist() for c in cells[merge]])
+        if face_ids is None:
+            return None
+        cells = cells[~merge]
+    else:
+        return None
+    if sum(len(m[2]) for m in face_meshes) > FALLBACK_MAX_PER_VERTEX * n:
+        return None  # the faces alone hold about as many quads as the whole polygon would
+    all_cells = cells
+    cells, params, trans = _transition_cells(X, cells, params, size, tips)
+    info: LayoutRefinement | None = None
+    if len(cells):
+        try:
+            pts, quads, info = refine_layout(
+                X, cells, size=size, edge_params=params, tips=tips.tolist(), check=False
+            )
+        except ValueError:
+            return None
+        pts = pts.copy()
+        lay_edges = {tuple(e) for e in info.chords.edges.tolist()}
+    else:  # every cell became a transition
+        pts, quads, lay_edges = X.copy(), np.zeros((0, 4), dtype=np.int64), set()
+    all_quads = [quads]
+
+    def edge_ids(a: int, b: int) -> NDArray[np.int64] | None:
+        """Refined points along the layout edge a -> b (None if no cell has it)."""
+        if info is None or (min(a, b), max(a, b)) not in lay_edges:
+            return None
+        return info.edge_points(a, b)
+
+    fine_ids: dict[tuple[int, int], NDArray[np.int64]] = {}  # F side (u, v) -> ids, u to v
+    coarse_ids: dict[tuple[int, int], NDArray[np.int64]] = {}  # coarse side c0 -> c3 -> ids
+    for tr in trans:
+        tm = tr.mesh
+        c0, c1, c2, c3 = tr.corners
+        gid = np.full(len(tm.points), -1, dtype=np.int64)
+        for side, a, b in ((tm.coarse, c0, c3), (tm.wall0, c0, c1), (tm.wall1, c3, c2)):
+            ids = edge_ids(a, b)
+            if ids is not None:
+                if len(ids) != len(side):
+                    return None
+                gid[side] = ids
+            else:
+                gid[side[0]], gid[side[-1]] = a, b
+        prev = None
+        if tr.parent >= 0:  # continues the transition whose coarse side is its fine side
+            prev = coarse_ids[(c1, c2)]
+        elif tr.parent == -2:  # after a cell that carried the rows on
+            prev = edge_ids(c1, c2)
+            if prev is None:
+                return None
+        if prev is not None:
+            if len(prev) != len(tm.fine):
+                return None
+            gid[tm.fine] = prev
+        gid[tm.fine[0]], gid[tm.fine[-1]] = c1, c2
+        new = gid < 0
+        gid[new] = len(pts) + np.arange(int(new.sum()))
+        pts = np.concatenate([pts, tm.points[new]])
+        all_quads.append(gid[tm.quads])
+        coarse_ids[(c0, c3)] = gid[tm.coarse]
+        if tr.parent == -1:
+            fine_ids[(c2, c1)] = gid[tm.fine][::-1]
+    n_block_quads = sum(len(q) for q in all_quads)
+    for ids, fz, fq, chains in face_meshes:
+        gid = np.full(len(fz), -1, dtype=np.int64)
+        for (u, v), chain in zip(zip(ids, ids[1:] + ids[:1]), chains):
+            if (u, v) in fine_ids:  # the fine side of a transition cell
+                t_ids = fine_ids[(u, v)]
+                if len(t_ids) != len(chain):
+                    return None
+                gid[chain] = t_ids
+                pts[t_ids[1:-1]] = fz[chain[1:-1]]
+            elif (u, v) in params:
+                lay_ids = info.edge_points(u, v)
+                if len(lay_ids) != len(chain):
+                    return None
+                gid[chain] = lay_ids
+                pts[lay_ids[1:-1]] = fz[chain[1:-1]]  # the face mesh's own coordinates
+            else:
+                gid[chain[0]], gid[chain[-1]] = u, v
+        new = gid < 0
+        gid[new] = len(pts) + np.arange(int(new.sum()))
+        pts = np.concatenate([pts, fz[new]])
+        all_quads.append(gid[fq])
+    quads = np.concatenate(all_quads)
+    # points left unused (centres of faces whose split failed) are dropped
+    keep = np.zeros(len(pts), dtype=bool)
+    keep[quads.ravel()] = True
+    keep[:n] = True
+    remap = np.cumsum(keep) - 1
+    lay = BlockLayout(
+        polygon=z,
+        points=X,
+        cuts=part.cuts,
+        faces=part.faces,
+        cells=all_cells,
+        tips=tips,
+        split=True,
+        angles=cell_angles(X[all_cells]),
+        fallback_faces=tuple(X[ids] for ids in face_ids),
+        fallback_quads=len(quads) - n_block_quads,
+    )
+    return pts[keep], remap[quads], lay, info
+
+
+@dataclass(frozen=True)
+class _Transition:
+    """A transition cell of :func:`_transition_cells`: its corners ``(c0, c1, c2, c3)`` (fine
+    side c1 -> c2, coarse side c0 -> c3), its mesh, the transition whose coarse side is its
+    fine side (``parent``; -1: its fine side is a face's, -2: a side of a cell that carries the
+    rows on unchanged), and the transition whose rows it goes on from (``after``, directly or
+    through such cells; -1: a face's)."""
+
+    corners: tuple[int, int, int, int]
+    mesh: TransitionMesh
+    parent: int
+    after: int
+
+
+#: rounds of transition cells along a chord away from a face that falls back (each continues
+#: from the coarse side of the one before, while rows are still to be removed)
+TRANSITION_ROUNDS = 12
+#: pairs of split rows all the cascades of one layout may optimise (the rest are placed by the
+#: template alone: the optimisation is what takes the time)
+TRANSITION_POLISH_BUDGET = 16
+#: a cell shorter along the rows than this share of its width carries them on without trying a
+#: cascade (measured on glyphs: cells below 0.45 never held one)
+TRANSITION_MIN_ASPECT = 0.5
+
+
+def _transition_cells(
+    X: NDArray[np.complex128],
+    cells: NDArray[np.int64],
+    params: dict[tuple[int, int], NDArray[np.float64]],
+    size: float,
+    tips: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], dict[tuple[int, int], NDArray[np.float64]], list[_Transition]]:
+    """Cells next to a face that falls back, meshed by transition cascades
+    (:func:`quadmesh.transition.transition_cascade`) from the face mesh's points on their side
+    (``params``: fixed parameters of the face sides ``(u, v)``, counter-clockwise around the
+    face) towards the count the size asks for on the opposite side, so that the graded points
+    of the paper's construction do not run along the whole chord.  Where one cell is too short
+    for the whole cascade, the next cell along the chord continues from its coarse side (up to
+    :data:`TRANSITION_ROUNDS` cells).
+
+    A cell is taken when it has one such side and holds no tip, and the cascades' coarse sides
+    and walls (which become fixed parameters of the chords of the cells left) agree with every
+    other fixed parameter on their chords (a cell whose cascade disagrees is left as a cell,
+    with the cells that continue from it); a cascade that does not lower the count is not
+    used.  Returns ``(cells left, fixed parameters, transitions)`` (the transitions in the
+    order they continue one another)."""
+    from .transition import TransitionError, transition_cascade
+
+    # sides a transition may start from, as the cell beyond runs along them: fine parameters
+    # from c1 to c2, and the transition that made the side (-1: a face)
+    start = {(v, u): (1.0 - t[::-1], -1, -1) for (u, v), t in params.items()}
+    budget = [TRANSITION_POLISH_BUDGET]  # pair optimisations, shared by all cascades
+    tip_cell = np.isin(cells, tips).any(axis=1)
+    cand: dict[int, _Transition] = {}
+    seen: set[int] = set()
+    for _round in range(TRANSITION_ROUNDS):
+        new_sides = {}
+        for c, q in enumerate(cells.tolist()):
+            if c in seen or tip_cell[c]:
+                continue
+            ks = [k for k in range(4) if (q[k], q[(k + 1) % 4]) in start]
+            if len(ks) != 1:
+                continue
+            seen.add(c)
+            k = ks[0]
+            corners = (q[(k - 1) % 4], q[k], q[(k + 1) % 4], q[(k + 2) % 4])
+            p_fine, parent, after = start[(corners[1], corners[2])]
+            cn = X[list(corners)]
+            n_coarse = max(1, math.ceil(abs(cn[3] - cn[0]) / size))
+            if (len(p_fine) - 1 - n_coarse) % 2:
+                n_coarse += 1
+            if len(p_fine) - 1 - n_coarse < 2:
+                continue
+            tm = None
+            along = min(abs(cn[1] - cn[0]), abs(cn[2] - cn[3]))
+            if along >= TRANSITION_MIN_ASPECT * max(abs(cn[3] - cn[0]), abs(cn[2] - cn[1])):
+                # the face mesh's points come in clusters: evened towards equal rows first,
+                # else by neighbour averaging; the cascade that leaves fewer rows is kept
+                for even in ("uniform", "smooth"):
+                    try:
+                        got = transition_cascade(
+                            cn, p_fine, n_coarse, partial=True, budget=budget, even=even
+                        )
+                    except TransitionError:
+                        continue
+                    if got.margin >= 0 and (tm is None or len(got.coarse) < len(tm.coarse)):
+                        tm = got
+            checkpoint()
+            if tm is None or len(tm.coarse) >= len(p_fine) or tm.margin < 0:
+                # too short a cell (or no room): it carries the rows on to the next cell
+                new_sides[(corners[0], corners[3])] = (p_fine, -2, after)
+                continue
+            cand[c] = _Transition(corners, tm, parent, after)
+            if len(tm.coarse) - 1 > n_coarse:
+                new_sides[(corners[0], corners[3])] = (tm.p_coarse, c, c)
+        if not new_sides:
+            break
+        start = new_sides
+    while cand:
+        # two transitions (or a transition and a face) on one side would each put their own
+        # points on it: only a face's side with its first transition's fine side, and a
+        # transition's coarse side with the fine side of the one continuing from it, may meet
+        on_side: dict[tuple[int, int], list[tuple[int, str]]] = {}
+        for u, v in params:
+            on_side.setdefault((min(u, v), max(u, v)), []).append((-1, "face"))
+        for c, tr in cand.items():
+            c0, c1, c2, c3 = tr.corners
+            for a, b, role in ((c1, c2, "fine"), (c0, c3, "coarse"), (c0, c1, "w"), (c3, c2, "w")):
+                if role == "fine" and tr.parent == -2:
+                    continue  # the side of a cell left as it is
+                on_side.setdefault((min(a, b), max(a, b)), []).append((c, role))
+        clash: set[int] = set()
+        for users in on_side.values():
+            if len(users) < 2:
+                continue
+            if len(users) == 2:
+                (ca, ra), (cb, rb) = sorted(users, key=lambda x: x[1])
+                pair = {ra: ca, rb: cb}
+                if ra == "face" and rb == "fine" and cand[cb].parent == -1:
+                    continue
+                if (ra, rb) == ("coarse", "fine") and cand[pair["fine"]].parent == pair["coarse"]:
+                    continue
+            clash.add(max(c for c, _r in users))
+        if clash:
+            while clash:  # with every transition continuing from a dropped one
+                for c in clash & set(cand):
+                    del cand[c]
+                clash = {c for c, tr in cand.items() if tr.after >= 0 and tr.after not in cand}
+            continue
+        keep = np.ones(len(cells), dtype=bool)
+        keep[list(cand)] = False
+        rest = cells[keep]
+        if len(rest) == 0:  # every cell is a transition: no chords left to agree on
+            return rest, {}, list(cand.values())
+        ch = layout_chords(rest, len(X))
+        edges = {tuple(e) for e in ch.edges.tolist()}
+        fixed: dict[tuple[int, int], tuple[NDArray[np.float64], int]] = {}
+        for (u, v), t in params.items():
+            fixed[(u, v)] = (t, -1)
+        for c, tr in cand.items():
+            c0, c1, c2, c3 = tr.corners
+            fixed[(c0, c3)] = (tr.mesh.p_coarse, c)
+            fixed[(c0, c1)] = (tr.mesh.u, c)
+            fixed[(c3, c2)] = (tr.mesh.u, c)
+        tip_chords = set(np.unique(ch.cell_chords[np.isin(rest, tips).any(axis=1)]).tolist())
+        by_chord: dict[int, list[int]] = {}
+        for u, v in list(fixed):
+            if (min(u, v), max(u, v)) not in edges:
+                del fixed[(u, v)]  # on the polygon's boundary, a face or another transition
+                continue
+            by_chord.setdefault(ch.chord_of(u, v), []).append(fixed[(u, v)][1])
+        drop = {
+            c for k, cs in by_chord.items() if len(cs) > 1 or k in tip_chords for c in cs if c >= 0
+        }
+        if not drop:
+            return rest, {uv: t for uv, (t, _c) in fixed.items()}, list(cand.values())
+        while drop:  # with every transition continuing from a dropped one
+            for c in drop & set(cand):
+                del cand[c]
+            drop = {c for c, tr in cand.items() if tr.after >= 0 and tr.after not in cand}
+    return cells, params, []
+
+
+def _merged_faces(faces: list[list[int]]) -> list[list[int]] | None:
+    """Faces (point ids, counter-clockwise) that share sides merged into one polygon each (the
+    sides they share cancel); None where a merged region is no simple polygon (a point where
+    its boundary meets itself, or a hole)."""
+    parent = list(range(len(faces)))
+
+    def root(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    owner: dict[tuple[int, int], int] = {}
+    for k, ids in enumerate(faces):
+        for u, v in zip(ids, ids[1:] + ids[:1]):
+            other = owner.get((v, u))
+            if other is not None:
+                parent[root(k)] = root(other)
+            owner[(u, v)] = k
+    groups: dict[int, list[int]] = {}
+    for k in range(len(faces)):
+        groups.setdefault(root(k), []).append(k)
+    out = []
+    for members in groups.values():
+        if len(members) == 1:
+            out.append(faces[members[0]])
+            continue
+        edges = {(u, v) for k in members for u, v in zip(faces[k], faces[k][1:] + faces[k][:1])}
+        nxt: dict[int, int] = {}
+        for u, v in edges:
+            if (v, u) in edges:
+                continue
+            if u in nxt:
+                return None  # the region touches itself at u
+            nxt[u] = v
+        start = next(iter(nxt))
+        cyc = [start]
+        while nxt[cyc[-1]] != start:
+            cyc.append(nxt[cyc[-1]])
+            if len(cyc) > len(nxt):
+                return None
+        if len(cyc) != len(nxt):
+            return None  # more than one boundary loop: a hole
+        out.append(cyc)
+    return out
+
+
+def _boundary_chains(
+    fz: NDArray[np.complex128], fq: NDArray[np.int64], corners: NDArray[np.complex128]
+) -> list[NDArray[np.int64]] | None:
+    """The boundary points of a mesh ``(fz, fq)`` of the polygon ``corners`` from each corner
+    to the next (both included, counter-clockwise), or None if a corner is not a mesh point or
+    the boundary does not run through the corners in order."""
+    scale = float(np.max(np.abs(corners - corners[0])))
+    at = np.empty(len(corners), dtype=np.int64)
+    for k, w in enumerate(corners):
+        d = np.abs(fz - w)
+        j = int(np.argmin(d))
+        if d[j] > 1e-12 * scale:
+            return None
+        at[k] = j
+    e = np.stack([fq, np.roll(fq, -1, axis=1)], axis=-1).reshape(-1, 2)
+    key = np.minimum(e[:, 0], e[:, 1]) * len(fz) + np.maximum(e[:, 0], e[:, 1])
+    uniq, cnt = np.unique(key, return_counts=True)
+    bnd = e[np.isin(key, uniq[cnt == 1])]
+    nxt = np.full(len(fz), -1, dtype=np.int64)
+    nxt[bnd[:, 0]] = bnd[:, 1]
+    chains = []
+    for k in range(len(at)):
+        a, b = int(at[k]), int(at[(k + 1) % len(at)])
+        chain = [a]
+        while chain[-1] != b:
+            c = int(nxt[chain[-1]])
+            if c < 0 or len(chain) > len(fz):
+                return None
+            chain.append(c)
+        chains.append(np.array(chain, dtype=np.int64))
+    return chains
+
+
 def mesh_blocks(
-    polygon: ArrayLike, size: float | None = None
+    polygon: ArrayLike, size: float | None = None, mesh_face: FaceMesher | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement | None]:
     """Quad mesh of a polygon from its block layout, refined to edge length about ``size``.
 
@@ -2239,7 +2850,10 @@ def mesh_blocks(
     The layout is the first of: straight cuts (:func:`block_layout`); a ladder of straight
     cells along the polygon as one corridor (:func:`_ladder_mesh`); a collar around a lattice
     core (:func:`quadmesh.rings.ring_layout`); straight cuts again with a longer search when
-    the first ran out of time (:func:`_long_cut_layout`).
+    the first ran out of time (:func:`_long_cut_layout`); with ``mesh_face`` (a mesher for one
+    face, the paper's construction), last, the straight cuts of the search round that left the
+    fewest faces unsplit, those faces meshed by ``mesh_face`` and glued to the cells
+    (:func:`mesh_partial_layout`; the layout's ``fallback_faces`` name them).
 
     Returns:
         ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices;
@@ -2253,8 +2867,9 @@ def mesh_blocks(
     h = default_block_size(z) if size is None else float(size)
     if not (h > 0 and math.isfinite(h)):
         raise ValueError(f"size must be a positive finite length, got {size!r}")
+    partial: list[PartialLayout] = []
     try:
-        lay = block_layout(z, h)
+        lay = block_layout(z, h, partial)
     except BlockLayoutError as exc:
         # no straight cuts close: the polygon as one corridor (strokes, round shapes with two
         # ends), else a collar around a lattice core (round and dense outlines)
@@ -2267,7 +2882,11 @@ def mesh_blocks(
         try:
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
-            lay = _long_cut_layout(z, exc.args[0])
+            lay = _long_cut_layout(z, exc.args[0], partial)
+            if lay is None and mesh_face is not None:
+                got = _fallback_faces(z, h, partial, mesh_face)
+                if got is not None:
+                    return got
             if lay is None:
                 raise BlockLayoutError(
                     f"{exc.args[0]}; nor does a ladder of straight cells along the polygon "
@@ -2282,7 +2901,32 @@ def mesh_blocks(
     return pts, quads, lay, info
 
 
-def _long_cut_layout(z: NDArray[np.complex128], why: str) -> BlockLayout | None:
+def _fallback_faces(
+    z: NDArray[np.complex128],
+    size: float,
+    partial: list[PartialLayout],
+    mesh_face: FaceMesher,
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
+    """The mesh of the searches' partial layout with its unsplit faces meshed by
+    ``mesh_face`` (:func:`mesh_partial_layout`); where the searches kept none (no set of
+    cuts served every corner), first a relaxed search in which corners may stay without a cut
+    (their faces fall back)."""
+    if not partial:
+        try:
+            _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
+        except BlockLayoutError:
+            pass
+    if not partial:
+        return None
+    got = mesh_partial_layout(partial[0], size, mesh_face)
+    if got is None or len(got[1]) > FALLBACK_MAX_PER_VERTEX * len(z):
+        return None  # the paper's construction on the whole polygon gives about as many
+    return got
+
+
+def _long_cut_layout(
+    z: NDArray[np.complex128], why: str, partial: list[PartialLayout] | None = None
+) -> BlockLayout | None:
     """The straight-cut layout searched for again when neither a ladder nor a collar closed,
     for :data:`LONG_SEARCH_SECONDS` per stage with faster rounds (faces apart,
     :func:`_split_cells`): when the first search ran out of time (``why``: its message), or
@@ -2300,6 +2944,7 @@ def _long_cut_layout(z: NDArray[np.complex128], why: str) -> BlockLayout | None:
             separate=True,
             tee_rays=LONG_MAX_RAYS_FOR_TEES,
             more_tees=not timed_out,
+            partial=partial,
         )
     except BlockLayoutError:
         return None

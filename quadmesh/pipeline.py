@@ -25,6 +25,7 @@ from collections.abc import Callable
 from concurrent.futures import Executor
 from contextlib import closing
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -239,7 +240,11 @@ def _run_stages(
         report("blocks", 0.05, 0.85)
         t0 = time.perf_counter()
         try:
-            z_b, quads_b, blocks, _info = mesh_blocks(work_poly.z, options.size)
+            z_b, quads_b, blocks, _info = mesh_blocks(
+                work_poly.z,
+                options.size,
+                _face_mesher(options, run.cancel if run is not None else None, runner.executor),
+            )
         except BlockLayoutError as exc:
             fallback = f"no block layout: {exc.args[0]}; meshed by the paper's construction"
         timings["blocks"] = time.perf_counter() - t0
@@ -269,7 +274,7 @@ def _run_stages(
                 quality=verification.quality,
                 verification=verification,
                 timings=timings,
-                quad_source=np.full(len(quads_b), 4, dtype=np.int8),
+                quad_source=_block_sources(len(quads_b), blocks),
                 origin=origin,
                 blocks=blocks,
                 mesh_origin=mesh_origin,
@@ -609,11 +614,16 @@ _nesting = threading.local()
 
 
 def _mesh_part(
-    w: np.ndarray, options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None
+    w: np.ndarray,
+    options: MeshOptions,
+    cancel: CancelCallback | None,
+    executor: Executor | None,
+    moved_ok: bool = False,
 ) -> MeshResult | None:
     """``mesh_polygon`` of a part cut off the user's polygon (an arm's body, a bridge's sides),
     or None when it is refused or meshed relative to an origin (its points could not be
-    matched by position). Bridges are not tried inside it."""
+    matched by position); with ``moved_ok`` also a part whose stages ran relative to an
+    origin but whose mesh passed in absolute coordinates. Bridges are not tried inside it."""
     from .errors import QuadmeshError
 
     depth = getattr(_nesting, "value", 0)
@@ -628,7 +638,32 @@ def _mesh_part(
         return None
     finally:
         _nesting.value = depth
-    return None if (r.mesh_origin or r.origin) else r
+    return None if (r.mesh_origin or (r.origin and not moved_ok)) else r
+
+
+def _block_sources(n_quads: int, layout: Any) -> np.ndarray:
+    """:attr:`MeshResult.quad_source` of a block mesh: 4 for the quads of the layout, 0 for
+    those of faces that fell back to the paper's construction (the mesh's last
+    ``layout.fallback_quads``, :func:`quadmesh.blocks.mesh_partial_layout`)."""
+    src = np.full(n_quads, 4, dtype=np.int8)
+    k = getattr(layout, "fallback_quads", 0)
+    if k:
+        src[n_quads - k :] = 0
+    return src
+
+
+def _face_mesher(
+    options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None]:
+    """The paper's construction for one face of a block layout that did not split into cells
+    (:func:`quadmesh.blocks.mesh_partial_layout`): ``(points, quads)`` or None."""
+    bishop = replace(options, method="bishop")
+
+    def mesh_face(w: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        r = _mesh_part(np.asarray(w, dtype=np.complex128), bishop, cancel, executor, True)
+        return None if r is None else (r.mesh.z, r.mesh.quads)
+
+    return mesh_face
 
 
 def _add_mesh(asm: Assembler, r: MeshResult) -> np.ndarray:

@@ -124,7 +124,11 @@ PIECE_PALETTE: tuple[str, ...] = (
 )
 ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
 #: Colours of the block layout's two parts: the coarse cells' edges and the cuts on top.
-BLOCK_COLORS: dict[str, str] = {"cuts": LAYER_COLORS["block_layout"], "cell edges": "#0b3d91"}
+BLOCK_COLORS: dict[str, str] = {
+    "cuts": LAYER_COLORS["block_layout"],
+    "cell edges": "#0b3d91",
+    "fallback faces": "#f08c2e",
+}
 CORNER_TITLE = "corner angle (deg)"
 WORST_TITLE = "worst deviation from 90 (deg)"
 
@@ -633,7 +637,21 @@ def _layer_block_layout(result: Any) -> list[LayerPart]:
     pts = np.asarray(layout.points, dtype=np.complex128)
     a, b = block_layout_edges(layout)
     cuts = np.asarray(layout.cuts, dtype=np.complex128).reshape(-1, 2)
+    faces = list(getattr(layout, "fallback_faces", ()))
+    fill = (
+        [
+            LayerPart(
+                _filled_polygons(faces),
+                color=BLOCK_COLORS["fallback faces"],
+                opacity=0.45,
+                label="faces meshed by the paper's construction",
+            )
+        ]
+        if faces
+        else []
+    )
     return [
+        *fill,
         LayerPart(
             _segments_polydata(pts[a], pts[b]),
             color=BLOCK_COLORS["cell edges"],

@@ -777,6 +777,7 @@ def transition_cascade(
     n_along: int = 1,
     budget: list[int] | None = None,
     tilt: bool = False,
+    even: str = "smooth",
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -795,7 +796,10 @@ def transition_cascade(
     (a one-item list, shared by the caller's cascades and decreased here) bounds how many pairs
     may be optimised; when it is spent, stages are built from the template alone.  ``tilt``:
     a stage that fails with its coarse rows evened out is tried again with them evened only as
-    far as its grid allows (:func:`_tilted`) before fewer pairs are tried.
+    far as its grid allows (:func:`_tilted`) before fewer pairs are tried.  ``even``: how the
+    first slice evens out unevenly spaced fine rows: ``"smooth"`` (neighbour averaging,
+    :func:`_even_out`) or ``"uniform"`` (towards equal rows, for the strongly clustered points
+    of a mesh of the paper's construction on a side, which averaging leaves clustered).
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
@@ -815,7 +819,12 @@ def transition_cascade(
     h = np.diff(pf)
     ratio = np.maximum(h[1:] / h[:-1], h[:-1] / h[1:]) if h.size > 1 else np.ones(1)
     if want > 0 and ratio.max() > UNEVEN:
-        q_even = _even_out(pf, EVEN_PASSES)
+        if even == "uniform":
+            q_even = np.linspace(0.0, 1.0, pf.size)
+        elif even == "smooth":
+            q_even = _even_out(pf, EVEN_PASSES)
+        else:
+            raise ValueError(f"even must be 'smooth' or 'uniform', got {even!r}")
         width = float(np.abs(cn[2] - cn[1]))
         along = float(min(abs(cn[1] - cn[0]), abs(cn[2] - cn[3])))
         du = float(np.abs(q_even - pf).max()) * width / np.tan(np.radians(EVEN_TILT)) / along

@@ -339,8 +339,8 @@ def test_a_block_mesh_failing_verification_falls_back(monkeypatch) -> None:
 
     real = blocks.mesh_blocks
 
-    def broken(z, size=None):
-        pts, quads, lay, info = real(z, size)
+    def broken(z, size=None, mesh_face=None):
+        pts, quads, lay, info = real(z, size, mesh_face)
         quads = quads.copy()
         quads[0] = quads[0][::-1]
         return pts, quads, lay, info
@@ -711,3 +711,77 @@ def test_serif_brackets_close_when_face_splits_are_searched_by_sampling() -> Non
         _cut_layout(poly.z)
     assert _cut_layout(poly.z, sample=True).kind == "cuts"
     assert _assert_cut_layout_mesh(m.vertices, poly) < 1000
+
+
+def _square_mesher(calls: list[np.ndarray]):
+    """The paper's construction as the face mesher of :func:`mesh_partial_layout`, recording
+    the polygons it is given."""
+    from quadmesh.pipeline import _face_mesher
+
+    inner = _face_mesher(MeshOptions(), None, None)
+
+    def mesh_face(w: np.ndarray):
+        calls.append(np.asarray(w))
+        return inner(w)
+
+    return mesh_face
+
+
+def test_a_face_that_does_not_split_falls_back_glued_by_transition_cells(tmp_path: Path) -> None:
+    # a 3 x 1 strip of three unit squares, the middle one marked as a face that did not split:
+    # it is meshed by the paper's construction (about a hundred graded points on each side it
+    # shares), and each outer square goes from those points down to the size's count on its
+    # far side by a transition cascade, so the graded rows stop there
+    from quadmesh.blocks import PartialLayout, mesh_partial_layout
+    from quadmesh.mesh import finalize_mesh
+
+    z = np.array([0, 1, 2, 3, 3 + 1j, 2 + 1j, 1 + 1j, 1j], dtype=np.complex128)
+    faces = tuple(np.array(f) for f in ([0, 1, 6, 7], [1, 2, 5, 6], [2, 3, 4, 5]))
+    part = PartialLayout(
+        z, z.copy(), faces, frozenset({1}), np.zeros(8, dtype=bool), np.ones(8, dtype=bool)
+    )
+    calls: list[np.ndarray] = []
+    pts, quads, lay, _info = mesh_partial_layout(part, 0.25, _square_mesher(calls))
+    assert len(calls) == 1 and np.allclose(np.sort_complex(calls[0]), [1, 1 + 1j, 2, 2 + 1j])
+    assert [len(f) for f in lay.fallback_faces] == [4]
+    assert len(lay.cells) == 2
+    on = {x: int(np.sum(np.abs(pts.real - x) < 1e-12)) - 1 for x in (0, 1, 2, 3)}
+    assert on[1] > 20 and on[2] > 20  # the face mesh's graded points on its sides
+    assert on[0] < on[1] / 2 and on[3] < on[2] / 2  # the far sides: fewer rows
+    face_quads = lay.fallback_quads
+    assert 0 < face_quads < len(quads)
+    inside = np.abs(pts[quads].mean(axis=1).real - 1.5) < 0.5
+    assert inside.sum() == face_quads  # the face's quads are the last ones, all in the face
+    assert np.all(inside[len(quads) - face_quads :])
+    poly = np.column_stack([z.real, z.imag])
+    mesh, _origin, report = finalize_mesh(poly, pts, quads)
+    assert report.ok
+    # the block layer fills the face that fell back (the unit square in the middle)
+    from types import SimpleNamespace
+
+    from quadmesh.render import _layer_block_layout
+
+    parts = {p.label: p for p in _layer_block_layout(SimpleNamespace(blocks=lay))}
+    fill = parts["faces meshed by the paper's construction"].mesh
+    assert abs(fill.area - 1.0) < 1e-12 and np.allclose(fill.bounds[:4], [1, 2, 0, 1])
+    out = tmp_path / "strip.json"
+    write_mesh(out, mesh)
+    got = independent_check(out, poly, angle_tol=1e-9)
+    assert got["n_quads"] == len(quads)
+
+
+def test_faces_that_fall_back_side_by_side_are_merged_into_one_polygon() -> None:
+    from quadmesh.blocks import _merged_faces
+
+    # two squares sharing the side 1-4 (with a point 6 on it), and a third apart
+    a = [0, 1, 6, 4, 5]
+    b = [1, 2, 3, 4, 6]
+    c = [10, 11, 12, 13]
+    got = _merged_faces([a, b, c])
+    assert got is not None and len(got) == 2
+    merged = next(f for f in got if len(f) != 4)
+    k = merged.index(0)
+    assert merged[k:] + merged[:k] == [0, 1, 2, 3, 4, 5]
+    # a ring of four faces around a hole is no simple polygon
+    ring = [[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
+    assert _merged_faces(ring) is None
