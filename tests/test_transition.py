@@ -273,3 +273,24 @@ def test_parity_row_beside_irregular_rows_in_a_short_cell():
         tm = transition_cascade(corners, p_fine, 199, partial=True)
         _check_parity(tm, corners, p_fine)
         assert tm.coarse.size == 200
+
+
+def test_clustered_rows_are_evened_towards_equal_rows_on_request() -> None:
+    # fine rows clustered as a mesh of the paper's construction puts them on a side: geometric
+    # runs towards both ends and towards one point inside (neighbouring rows up to 14 times
+    # apart); neighbour averaging leaves them clustered and no pair finds a place, evening
+    # them towards equal rows first lets the cascade go down to a few rows in a 5 x 1 cell
+    g = 0.002 * 1.35 ** np.arange(14)
+    p = np.concatenate([g, 0.45 - g[::-1][:-1], 0.45 + g[1:], 1 - g[::-1]])
+    p = np.unique(np.concatenate([[0.0], np.sort(p[(p > 0) & (p < 1)]), [1.0]]))
+    cn = np.array([0, 5, 5 + 1j, 1j])
+    smooth = transition_cascade(cn, p, 4, partial=True, budget=[16])
+    uniform = transition_cascade(cn, p, 4, partial=True, budget=[16], even="uniform")
+    assert len(p) - 1 == 55 and len(smooth.coarse) - 1 >= 50
+    assert len(uniform.coarse) - 1 <= 10
+    for tm in (smooth, uniform):
+        a = _angles(tm.points, tm.quads)
+        assert a.min() >= 60.0 - 1e-9 and a.max() <= 120.0 + 1e-9
+        assert np.allclose(tm.points[tm.fine], cn[1] + p * (cn[2] - cn[1]), atol=1e-12)
+    with pytest.raises(ValueError, match="even"):
+        transition_cascade(cn, p, 4, even="flat")
