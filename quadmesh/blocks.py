@@ -146,6 +146,9 @@ LADDER_MAX_EDGE = 2.5
 UNSERVED_COST = 20.0
 #: wall-clock seconds of the relaxed search (:func:`mesh_partial_layout`)
 RELAXED_SECONDS = 1.0
+#: the relaxed search runs only with at most this many candidate cuts (its integer program
+#: overruns its time several times over on glyphs with 1,200-1,300)
+RELAXED_MAX_RAYS = 800
 #: the faces that fall back may have at most this share of the polygon's vertex count in all
 #: (corners and points on their sides): the paper's construction costs about a thousand quads
 #: per vertex, so larger faces would give as many quads as meshing the whole polygon by it
@@ -1204,9 +1207,10 @@ def _solve(
         # (HiGHS's presolve spends a second on the dense rows of the junction search)
         | ({} if rel_gap is None else {"mip_rel_gap": rel_gap, "presolve": False}),
     )
-    # with a gap, a layout found before the time ran out will do as well (status 1: the time
-    # limit was reached with a feasible solution)
-    if res.x is None or not (res.status == 0 or (rel_gap is not None and res.status == 1)):
+    # with a gap, or where slots may stay without a cut, a layout found before the time ran
+    # out will do as well (status 1: the time limit was reached with a feasible solution)
+    anytime = rel_gap is not None or unserved_cost is not None
+    if res.x is None or not (res.status == 0 or (anytime and res.status == 1)):
         return None
     return [int(c) for c in np.nonzero(res.x[:nr] > 0.5)[0]]
 
@@ -1889,6 +1893,8 @@ def _cut_layout(
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
+    if relax and len(rays) > RELAXED_MAX_RAYS:
+        raise BlockLayoutError(f"{len(rays)} candidate cuts are too many for a relaxed search")
     if more_tees and len(rays) + len(bare) <= MAX_RAYS_FOR_TEES:
         raise BlockLayoutError("the T-junction candidates were made already")
     small = len(rays) + len(bare) <= tee_rays
@@ -2321,7 +2327,8 @@ class PartialLayout:
 
     @property
     def score(self) -> tuple[int, int]:
-        """Fewer faces to fall back first, then fewer corners on them."""
+        """Fewer faces to fall back first (each adds the points of its mesh on its sides to the
+        layout), then fewer corners on them."""
         return len(self.wrong), sum(len(self.faces[k]) for k in self.wrong)
 
 
@@ -2884,7 +2891,7 @@ def mesh_blocks(
         except RingLayoutError as ring_exc:
             lay = _long_cut_layout(z, exc.args[0], partial)
             if lay is None and mesh_face is not None:
-                got = _fallback_faces(z, h, partial, mesh_face)
+                got = _fallback_faces(z, h, partial, mesh_face, exc.args[0])
                 if got is not None:
                     return got
             if lay is None:
@@ -2906,12 +2913,14 @@ def _fallback_faces(
     size: float,
     partial: list[PartialLayout],
     mesh_face: FaceMesher,
+    why: str = "",
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
     """The mesh of the searches' partial layout with its unsplit faces meshed by
     ``mesh_face`` (:func:`mesh_partial_layout`); where the searches kept none (no set of
     cuts served every corner), first a relaxed search in which corners may stay without a cut
-    (their faces fall back)."""
-    if not partial:
+    (their faces fall back), unless the first search gave up on too many conflicting pairs of
+    candidates (``why``, its message: the relaxed one would too)."""
+    if not partial and "pairs of candidate cuts conflict" not in why:
         try:
             _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
         except BlockLayoutError:

@@ -785,3 +785,39 @@ def test_faces_that_fall_back_side_by_side_are_merged_into_one_polygon() -> None
     # a ring of four faces around a hole is no simple polygon
     ring = [[0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
     assert _merged_faces(ring) is None
+
+
+def test_relaxed_search_leaves_uncut_corners_in_faces_that_fall_back() -> None:
+    # Computer Modern "A": no set of straight cuts serves every corner (the integer program has
+    # no solution); with corners allowed to stay uncut, a round's faces tile the glyph, the
+    # faces that split have every corner in range, and every obtuse corner without a cut lies
+    # in a face that falls back
+    from quadmesh.blocks import _angles_deg, _cut_layout
+    from quadmesh.families import family_members
+    from quadmesh.polygon import signed_area
+
+    glyph = next(m for m in family_members("glyphs_cm") if m.name == "cmr10_A")
+    z = validate_polygon(glyph.vertices).z
+    with pytest.raises(BlockLayoutError, match="no set of straight cuts"):
+        block_layout(z)
+    part: list = []
+    with pytest.raises(BlockLayoutError):
+        _cut_layout(z, seconds=1.0, separate=True, partial=part, relax=True)
+    assert len(part) == 1
+    lay = part[0]
+    assert 0 < len(lay.wrong) < len(lay.faces)
+    areas = [signed_area(lay.points[f]) for f in lay.faces]
+    assert min(areas) > 0 and abs(sum(areas) - signed_area(z)) < 1e-12 * abs(signed_area(z))
+    theta = _angles_deg(z)
+    starts = np.abs(lay.cuts[:, 0][:, None] - z[None, :]).min(axis=0) < 1e-12
+    in_wrong = np.zeros(len(z), dtype=bool)
+    for k in lay.wrong:
+        f = lay.faces[k]
+        in_wrong[f[f < len(z)]] = True
+    uncut = (theta > 120.0 + 1e-7) & ~starts
+    assert uncut.any() and np.all(in_wrong[uncut])
+    for k in set(range(len(lay.faces))) - set(lay.wrong):
+        f = lay.faces[k]
+        a = _angles_deg(lay.points[f])
+        tip = lay.tip_mask[f]
+        assert np.all(a[~tip] >= 60.0 - 1e-7) and np.all(a[~tip] <= 120.0 + 1e-7)
