@@ -2799,6 +2799,8 @@ def _merged_faces(faces: list[list[int]]) -> list[list[int]] | None:
             if u in nxt:
                 return None  # the region touches itself at u
             nxt[u] = v
+        if not nxt:
+            return None
         start = next(iter(nxt))
         cyc = [start]
         while nxt[cyc[-1]] != start:
