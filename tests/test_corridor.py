@@ -694,7 +694,7 @@ def test_with_blocks_and_no_layout_the_arms_body_is_meshed_by_the_papers_constru
 
     calls = []
 
-    def no_layout(polygon, size=None):
+    def no_layout(polygon, size=None, mesh_face=None):
         calls.append(len(polygon))
         raise blocks.BlockLayoutError("no layout (test)")
 
