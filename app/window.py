@@ -979,6 +979,8 @@ class MainWindow(QMainWindow):
                 info["part"] = f"coarse cell {cell} of the block layout"
             elif r.blocks.kind == "ladder":
                 info["part"] = "a round end or bend of the corridor (a vertex sector)"
+            elif src is not None and len(src) == mesh.n_quads and int(src[k]) != 4:
+                info["part"] = "a face meshed by the paper's construction (no blocks there)"
             return info
         part = quad_part_index(r)
         if part is not None:

@@ -198,6 +198,8 @@ class BlockLayout:
             (:func:`mesh_partial_layout`): (k,) complex polygons, their corners and every
             layout point on their sides.
         fallback_quads: how many quads of the mesh those faces hold (the mesh's last ones).
+        fallback_source: per quad of those faces, the stage of the paper's construction that
+            made it (the codes of :data:`quadmesh.io.STAGE_KINDS`).
     """
 
     polygon: NDArray[np.complex128]
@@ -215,6 +217,7 @@ class BlockLayout:
     junctions: int = 0
     fallback_faces: tuple[NDArray[np.complex128], ...] = ()
     fallback_quads: int = 0
+    fallback_source: NDArray[np.int8] = field(default_factory=lambda: np.zeros(0, np.int8))
 
     @property
     def n_cells(self) -> int:
@@ -2390,9 +2393,11 @@ def _points_on_sides(
     return out
 
 
-#: a face mesh for :func:`mesh_partial_layout`: polygon in, (points, quads) or None out
+#: a face mesh for :func:`mesh_partial_layout`: polygon in, ``(points, quads, source)`` or None
+#: out (``source``: per quad, the stage code of :data:`quadmesh.io.STAGE_KINDS` that made it)
 FaceMesher = Callable[
-    [NDArray[np.complex128]], tuple[NDArray[np.complex128], NDArray[np.int64]] | None
+    [NDArray[np.complex128]],
+    tuple[NDArray[np.complex128], NDArray[np.int64], NDArray[np.int8]] | None,
 ]
 
 
@@ -2448,7 +2453,7 @@ def mesh_partial_layout(
     if face_ids is None:
         return None
     tips = np.flatnonzero(part.tip_mask[:n]).astype(np.int64)
-    meshed: dict[tuple[int, ...], tuple[NDArray[np.complex128], NDArray[np.int64], list]] = {}
+    meshed: dict[tuple[int, ...], tuple] = {}
     for _ in range(MAX_FALLBACK_MERGES + 1):
         if len(cells) == 0:
             return None
@@ -2468,8 +2473,8 @@ def mesh_partial_layout(
                 chains = _boundary_chains(fz, fq, X[ids])
                 if chains is None:
                     return None
-                meshed[tuple(ids)] = (fz, fq, chains)
-            fz, fq, chains = meshed[tuple(ids)]
+                meshed[tuple(ids)] = (fz, fq, chains, np.asarray(got[2], dtype=np.int8))
+            fz, fq, chains, _src = meshed[tuple(ids)]
             for (u, v), chain in zip(zip(ids, ids[1:] + ids[:1]), chains):
                 try:
                     ch.edge_id(u, v)
@@ -2481,7 +2486,7 @@ def mesh_partial_layout(
                 if np.any(np.diff(t) <= 0):
                     return None
                 params[(u, v)] = t
-            face_meshes.append((ids, fz, fq, chains))
+            face_meshes.append((ids, fz, fq, chains, _src))
         # a chord between two fixed sides (a strip of cells from one fallback face to another,
         # or back to the same one) cannot carry both meshes' points, and one through a tip's
         # block must stay whole: their cells join the faces that fall back
@@ -2559,7 +2564,7 @@ def mesh_partial_layout(
         if tr.parent == -1:
             fine_ids[(c2, c1)] = gid[tm.fine][::-1]
     n_block_quads = sum(len(q) for q in all_quads)
-    for ids, fz, fq, chains in face_meshes:
+    for ids, fz, fq, chains, _src in face_meshes:
         gid = np.full(len(fz), -1, dtype=np.int64)
         for (u, v), chain in zip(zip(ids, ids[1:] + ids[:1]), chains):
             if (u, v) in fine_ids:  # the fine side of a transition cell
@@ -2597,6 +2602,7 @@ def mesh_partial_layout(
         angles=cell_angles(X[all_cells]),
         fallback_faces=tuple(X[ids] for ids in face_ids),
         fallback_quads=len(quads) - n_block_quads,
+        fallback_source=np.concatenate([m[4] for m in face_meshes]),
     )
     return pts[keep], remap[quads], lay, info
 

@@ -642,26 +642,31 @@ def _mesh_part(
 
 
 def _block_sources(n_quads: int, layout: Any) -> np.ndarray:
-    """:attr:`MeshResult.quad_source` of a block mesh: 4 for the quads of the layout, 0 for
+    """:attr:`MeshResult.quad_source` of a block mesh: 4 for the quads of the layout, and for
     those of faces that fell back to the paper's construction (the mesh's last
-    ``layout.fallback_quads``, :func:`quadmesh.blocks.mesh_partial_layout`)."""
+    ``layout.fallback_quads``, :func:`quadmesh.blocks.mesh_partial_layout`) the stage of that
+    construction that made them."""
     src = np.full(n_quads, 4, dtype=np.int8)
     k = getattr(layout, "fallback_quads", 0)
     if k:
-        src[n_quads - k :] = 0
+        src[n_quads - k :] = layout.fallback_source
     return src
 
 
 def _face_mesher(
     options: MeshOptions, cancel: CancelCallback | None, executor: Executor | None
-) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray] | None]:
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray] | None]:
     """The paper's construction for one face of a block layout that did not split into cells
-    (:func:`quadmesh.blocks.mesh_partial_layout`): ``(points, quads)`` or None."""
+    (:func:`quadmesh.blocks.mesh_partial_layout`): ``(points, quads, quad sources)`` or
+    None."""
     bishop = replace(options, method="bishop")
 
-    def mesh_face(w: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    def mesh_face(w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         r = _mesh_part(np.asarray(w, dtype=np.complex128), bishop, cancel, executor, True)
-        return None if r is None else (r.mesh.z, r.mesh.quads)
+        if r is None:
+            return None
+        src = r.quad_source if r.quad_source is not None else np.zeros(len(r.mesh.quads))
+        return r.mesh.z, r.mesh.quads, np.asarray(src, dtype=np.int8)
 
     return mesh_face
 

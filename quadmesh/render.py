@@ -123,7 +123,8 @@ PIECE_PALETTE: tuple[str, ...] = (
     "#ffed6f",
 )
 ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
-#: Colours of the block layout's two parts: the coarse cells' edges and the cuts on top.
+#: Colours of the block layout's parts: the coarse cells' edges, the cuts on top, and the faces
+#: meshed by the paper's construction where no block layout closed.
 BLOCK_COLORS: dict[str, str] = {
     "cuts": LAYER_COLORS["block_layout"],
     "cell edges": "#0b3d91",

@@ -750,6 +750,8 @@ def test_a_face_that_does_not_split_falls_back_glued_by_transition_cells(tmp_pat
     assert on[0] < on[1] / 2 and on[3] < on[2] / 2  # the far sides: fewer rows
     face_quads = lay.fallback_quads
     assert 0 < face_quads < len(quads)
+    # the face's quads keep the stages of the paper's construction that made them
+    assert len(lay.fallback_source) == face_quads and set(lay.fallback_source) <= {0, 1, 2, 3}
     inside = np.abs(pts[quads].mean(axis=1).real - 1.5) < 0.5
     assert inside.sum() == face_quads  # the face's quads are the last ones, all in the face
     assert np.all(inside[len(quads) - face_quads :])
