@@ -2688,7 +2688,13 @@ def _transition_cells(
                 for even in ("uniform", "smooth"):
                     try:
                         got = transition_cascade(
-                            cn, p_fine, n_coarse, partial=True, budget=budget, even=even
+                            cn,
+                            p_fine,
+                            n_coarse,
+                            partial=True,
+                            budget=budget,
+                            even=even,
+                            reuse=True,
                         )
                     except TransitionError:
                         continue

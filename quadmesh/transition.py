@@ -306,6 +306,7 @@ def transition_mesh(
     polish: list[int] | None = None,
     half: str | None = None,
     hints: list[NDArray[np.float64]] | None = None,
+    reuse: bool = False,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (c0, c1, c2, c3 counter-clockwise, every corner in
     [60°, 120°]) with coarse rows on its side c0 -> c3 and fine rows on its side c1 -> c2.
@@ -330,7 +331,8 @@ def transition_mesh(
 
     ``polish``: a one-item budget of pair optimisations (shared with the caller); ``hints``:
     the offsets optimised for earlier pairs (:func:`_polish`), shared by the stages of a
-    cascade (by default the pairs of this call share theirs).
+    cascade (by default the pairs of this call share theirs); ``reuse``: once the budget is
+    spent, pairs still try the hints (no optimisation) instead of keeping the template.
 
     Raises :class:`TransitionError` if some angle cannot be kept in [60°, 120°] with at least
     :data:`MIN_MARGIN` to spare (the exact 120° angles at the valence-3 vertices excepted)."""
@@ -495,7 +497,10 @@ def transition_mesh(
             continue
         if polish is not None:
             if polish[0] <= 0:
-                break
+                if not reuse:
+                    break
+                z = _polish(z, lq, ex, free, spec[rows], free_along[g], hints, optimise=False)
+                continue
             polish[0] -= 1
         z = _polish(z, lq, ex, free, spec[rows], free_along[g], hints)
         polished += 1
@@ -553,6 +558,7 @@ def _polish(
     spec: NDArray[np.int64],
     along: NDArray[np.complex128] | None = None,
     hints: list[NDArray[np.float64]] | None = None,
+    optimise: bool = True,
 ) -> NDArray[np.complex128]:
     """Move the ``free`` points (the Fermat points of ``spec`` following them) to maximise the
     smallest margin of the angles of ``quads`` inside [60°, 120°].  ``along``: per free
@@ -565,7 +571,8 @@ def _polish(
     A soft minimum of the margins (log-sum-exp at temperatures 3°, 1°, 0.3°, BFGS) leads to
     the neighbourhood of the best placement, then SLSQP on the epigraph form (maximise t with
     every margin ≥ t) finishes it; the template start is tried first, then one jittered
-    start.  Offsets are measured in the pair's row height."""
+    start.  Offsets are measured in the pair's row height.  Without ``optimise`` only the
+    hints are tried (``z`` comes back unchanged when none reaches the margin)."""
     # work on the few points involved, not on the whole cell's
     local = np.unique(np.concatenate([quads.ravel(), free, spec.ravel()]))
     pos = {int(v): i for i, v in enumerate(local)}
@@ -648,6 +655,8 @@ def _polish(
             if m >= enough:
                 best_x, best_m, hinted = xh, m, True
                 break
+    if not optimise and not hinted:
+        return z_all
     for trial in range(0 if hinted else 2):
         x = np.zeros(2 * nf) if trial == 0 else 0.1 * rng.standard_normal(2 * nf)
         opts = {"maxiter": 40}
@@ -778,6 +787,7 @@ def transition_cascade(
     budget: list[int] | None = None,
     tilt: bool = False,
     even: str = "smooth",
+    reuse: bool = False,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -800,6 +810,7 @@ def transition_cascade(
     first slice evens out unevenly spaced fine rows: ``"smooth"`` (neighbour averaging,
     :func:`_even_out`) or ``"uniform"`` (towards equal rows, for the strongly clustered points
     of a mesh of the paper's construction on a side, which averaging leaves clustered).
+    ``reuse``: as in :func:`transition_mesh`, for every stage.
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
@@ -872,7 +883,14 @@ def transition_cascade(
             for pe in (_even_out(pc), pc):
                 try:
                     tm_par = transition_mesh(
-                        sub, q, [], p_coarse=pe, polish=budget, half=half, hints=hints
+                        sub,
+                        q,
+                        [],
+                        p_coarse=pe,
+                        polish=budget,
+                        half=half,
+                        hints=hints,
+                        reuse=reuse,
                     )
                 except TransitionError:
                     continue
@@ -915,7 +933,9 @@ def transition_cascade(
         evened = _even_out(pc)
         for pe in (evened, _tilted(pc, evened, sub), pc) if tilt else (evened,):
             try:
-                tm = transition_mesh(sub, q, pairs, p_coarse=pe, polish=budget, hints=hints)
+                tm = transition_mesh(
+                    sub, q, pairs, p_coarse=pe, polish=budget, hints=hints, reuse=reuse
+                )
             except TransitionError:
                 if not partial:
                     raise

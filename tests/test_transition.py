@@ -294,3 +294,18 @@ def test_clustered_rows_are_evened_towards_equal_rows_on_request() -> None:
         assert np.allclose(tm.points[tm.fine], cn[1] + p * (cn[2] - cn[1]), atol=1e-12)
     with pytest.raises(ValueError, match="even"):
         transition_cascade(cn, p, 4, even="flat")
+
+
+def test_pairs_past_the_optimisation_budget_reuse_earlier_offsets_on_request() -> None:
+    # a parallelogram skewed by 10°: the template misses the margin there, so every pair needs
+    # its offsets optimised; with a budget of one optimisation the cascade stops at once, and
+    # with ``reuse`` the later pairs take the first pair's offsets and the rows go on down
+    d = np.exp(1j * np.radians(80.0))
+    cn = np.array([0, 6, 6 + d, d])
+    p = np.linspace(0, 1, 41)
+    plain = transition_cascade(cn, p, 4, partial=True, budget=[1])
+    reused = transition_cascade(cn, p, 4, partial=True, budget=[1], reuse=True)
+    assert len(plain.coarse) - 1 == 40
+    assert len(reused.coarse) - 1 <= 30
+    a = _angles(reused.points, reused.quads)
+    assert a.min() >= 60.0 - 1e-9 and a.max() <= 120.0 + 1e-9
