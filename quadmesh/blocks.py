@@ -2695,6 +2695,7 @@ def _transition_cells(
                             budget=budget,
                             even=even,
                             reuse=True,
+                            straighten=True,
                         )
                     except TransitionError:
                         continue
@@ -2755,8 +2756,8 @@ def _transition_cells(
         for c, tr in cand.items():
             c0, c1, c2, c3 = tr.corners
             fixed[(c0, c3)] = (tr.mesh.p_coarse, c)
-            fixed[(c0, c1)] = (tr.mesh.u, c)
-            fixed[(c3, c2)] = (tr.mesh.u, c)
+            fixed[(c0, c1)] = (_side_params(X, c0, c1, tr.mesh.points[tr.mesh.wall0]), c)
+            fixed[(c3, c2)] = (_side_params(X, c3, c2, tr.mesh.points[tr.mesh.wall1]), c)
         tip_chords = set(np.unique(ch.cell_chords[np.isin(rest, tips).any(axis=1)]).tolist())
         by_chord: dict[int, list[int]] = {}
         for u, v in list(fixed):
@@ -2774,6 +2775,17 @@ def _transition_cells(
                 del cand[c]
             drop = {c for c, tr in cand.items() if tr.after >= 0 and tr.after not in cand}
     return cells, params, []
+
+
+def _side_params(
+    X: NDArray[np.complex128], a: int, b: int, w: NDArray[np.complex128]
+) -> NDArray[np.float64]:
+    """Parameters of the points ``w`` (in order from ``X[a]`` to ``X[b]``) along the segment
+    a -> b, exactly 0 and 1 at its ends (a transition's walls may carry different ones)."""
+    d = X[b] - X[a]
+    t = ((w - X[a]) * np.conj(d)).real / abs(d) ** 2
+    t[0], t[-1] = 0.0, 1.0
+    return t
 
 
 def _merged_faces(faces: list[list[int]]) -> list[list[int]] | None:

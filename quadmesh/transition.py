@@ -788,6 +788,7 @@ def transition_cascade(
     tilt: bool = False,
     even: str = "smooth",
     reuse: bool = False,
+    straighten: bool = False,
 ) -> TransitionMesh:
     """Mesh the convex cell ``corners`` (as in :func:`transition_mesh`) from ``n_coarse`` rows
     on its side c0 -> c3 to the rows of ``p_fine`` on its side c1 -> c2 by successive
@@ -810,12 +811,20 @@ def transition_cascade(
     first slice evens out unevenly spaced fine rows: ``"smooth"`` (neighbour averaging,
     :func:`_even_out`) or ``"uniform"`` (towards equal rows, for the strongly clustered points
     of a mesh of the paper's construction on a side, which averaging leaves clustered).
-    ``reuse``: as in :func:`transition_mesh`, for every stage.
+    ``reuse``: as in :func:`transition_mesh`, for every stage.  ``straighten``: in a cell whose
+    rows meet its rungs more than :data:`STRAIGHTEN_MIN_SKEW` degrees off the perpendicular
+    (the pairs' template and their optimisation fail from about 15°), the stages run in a
+    core cell whose rungs are perpendicular to the rows, between two plain slices that turn
+    the rungs (:func:`_straightened`); the two walls then carry different parameters.
 
     Raises :class:`TransitionError` when the counts cannot be met or the stages do not fit in
     the cell (without ``partial``)."""
     cn = np.asarray(corners, dtype=np.complex128)
     pf = np.asarray(p_fine, dtype=np.float64)
+    if straighten:
+        got = _straightened(cn, pf, n_coarse, partial, n_along, budget, tilt, even, reuse)
+        if got is not None:
+            return got
     need = pf.size - 1 - int(n_coarse)
     if need < 0:
         raise TransitionError(
@@ -995,4 +1004,97 @@ def transition_cascade(
         p_coarse=p_coarse,
         margin=margin,
         parity="".join(tm.parity for _, _, tm in stages),
+    )
+
+
+#: skew (degrees off the perpendicular between a cell's rows and rungs) above which
+#: ``transition_cascade(straighten=True)`` runs its stages in a straightened core
+STRAIGHTEN_MIN_SKEW = 5.0
+#: the straightening slices take at least this share of the cell's length each
+STRAIGHTEN_GAP = 0.02
+
+
+def _straightened(
+    cn: NDArray[np.complex128],
+    pf: NDArray[np.float64],
+    n_coarse: int,
+    partial: bool,
+    n_along: int,
+    budget: list[int] | None,
+    tilt: bool,
+    even: str,
+    reuse: bool,
+) -> TransitionMesh | None:
+    """:func:`transition_cascade` of a skewed cell in a straightened core: with ``e_u`` and
+    ``e_p`` the cell's mean row and rung directions, a rung from wall parameter ``a`` on the
+    wall p = 0 to ``a + s`` on the wall p = 1, ``s = -Re(e_p conj(e_u)) / |e_u|²``, is
+    perpendicular to the rows (exactly so in a parallelogram).  The core between two such rungs
+    holds the cascade; the slices between them and the cell's own rungs are plain ruled strips
+    of the fine and of the coarse rows (their angles lie between the cell's corners and 90°).
+    None when the cell is skewed by less than :data:`STRAIGHTEN_MIN_SKEW` degrees or too short
+    for the core; the plain cascade is then the one to run."""
+    e_u = 0.5 * ((cn[1] - cn[0]) + (cn[2] - cn[3]))
+    e_p = 0.5 * ((cn[3] - cn[0]) + (cn[2] - cn[1]))
+    skew = abs(90.0 - np.degrees(abs(np.angle(e_p / e_u))))
+    if skew < STRAIGHTEN_MIN_SKEW:
+        return None
+    s = -float((e_p * np.conj(e_u)).real / abs(e_u) ** 2)
+    g = max(STRAIGHTEN_GAP, 0.25 * abs(s))
+    hi0, hi1 = (1.0 - g - s, 1.0 - g) if s > 0 else (1.0 - g, 1.0 - g + s)
+    lo0, lo1 = (g, g + s) if s > 0 else (g - s, g)
+    if hi0 - lo0 < 2.0 * g:
+        return None
+    core = np.array(
+        [_ruled(cn, lo0, 0.0), _ruled(cn, hi0, 0.0), _ruled(cn, hi1, 1.0), _ruled(cn, lo1, 1.0)]
+    )
+    inner = transition_cascade(
+        core,
+        pf,
+        n_coarse,
+        partial=partial,
+        n_along=n_along,
+        budget=budget,
+        tilt=tilt,
+        even=even,
+        reuse=reuse,
+    )
+    pts = [inner.points]
+    count = inner.points.size
+    # the fine slice: the core's fine rung to the cell's fine side, the fine rows straight
+    fine_side = cn[1] + pf * (cn[2] - cn[1])
+    fine_ids = count + np.arange(pf.size)
+    pts.append(fine_side)
+    count += pf.size
+    q_fine = np.stack([inner.fine[:-1], fine_ids[:-1], fine_ids[1:], inner.fine[1:]], axis=1)
+    # the coarse slice: the cell's coarse side to the core's coarse rung
+    pc = inner.p_coarse
+    coarse_side = cn[0] + pc * (cn[3] - cn[0])
+    coarse_ids = count + np.arange(pc.size)
+    pts.append(coarse_side)
+    q_coarse = np.stack(
+        [coarse_ids[:-1], inner.coarse[:-1], inner.coarse[1:], coarse_ids[1:]], axis=1
+    )
+    z = np.concatenate(pts)
+    quads = np.concatenate([inner.quads, q_fine, q_coarse])
+    plain = np.concatenate([q_fine, q_coarse])
+    m = _margin(z, plain, np.zeros(plain.shape, dtype=bool))
+    if m < MIN_MARGIN:
+        return None
+    wall0 = np.concatenate([[coarse_ids[0]], inner.wall0, [fine_ids[0]]])
+    wall1 = np.concatenate([[coarse_ids[-1]], inner.wall1, [fine_ids[-1]]])
+    d0 = cn[1] - cn[0]
+    u0 = ((z[wall0] - cn[0]) * np.conj(d0)).real / abs(d0) ** 2
+    u0[0], u0[-1] = 0.0, 1.0
+    return TransitionMesh(
+        points=z,
+        quads=quads,
+        coarse=coarse_ids,
+        fine=fine_ids,
+        wall0=wall0,
+        wall1=wall1,
+        u=u0,
+        p_coarse=pc,
+        margin=min(inner.margin, m),
+        polished=inner.polished,
+        parity=inner.parity,
     )

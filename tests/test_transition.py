@@ -309,3 +309,35 @@ def test_pairs_past_the_optimisation_budget_reuse_earlier_offsets_on_request() -
     assert len(reused.coarse) - 1 <= 30
     a = _angles(reused.points, reused.quads)
     assert a.min() >= 60.0 - 1e-9 and a.max() <= 120.0 + 1e-9
+
+
+@pytest.mark.parametrize("skew", [15.0, 25.0])
+def test_a_skewed_cell_cascades_in_a_straightened_core(skew: float) -> None:
+    # rows meeting the rungs 15°-25° off the perpendicular: no pair fits the plain cascade
+    # (nor its optimisation); in a core whose rungs are perpendicular to the rows, between two
+    # plain slices, the rows go from 40 down to a few; the mesh covers the cell exactly, its
+    # sides carry the given points, and every angle is in range
+    d = np.exp(1j * np.radians(90.0 - skew))
+    cn = np.array([0, 6, 6 + d, d])
+    p = np.linspace(0, 1, 41)
+    plain = transition_cascade(cn, p, 4, partial=True, budget=[1000])
+    tm = transition_cascade(cn, p, 4, partial=True, budget=[1000], straighten=True)
+    assert len(plain.coarse) - 1 == 40 and len(tm.coarse) - 1 <= 8
+    a = _angles(tm.points, tm.quads)
+    assert a.min() >= 60.0 - 1e-9 and a.max() <= 120.0 + 1e-9
+    e, cnt = _edge_counts(tm.quads)
+    assert cnt.max() == 2
+    area = sum(_area(tm.points[q]) for q in tm.quads)
+    assert area > 0 and abs(area - _area(cn)) < 1e-12
+    assert np.allclose(tm.points[tm.fine], cn[1] + p * (cn[2] - cn[1]), atol=1e-12)
+    pc = tm.p_coarse
+    assert np.allclose(tm.points[tm.coarse], cn[0] + pc * (cn[3] - cn[0]), atol=1e-12)
+    # the boundary: the four sides' points and nothing else (edges in one quad only)
+    bnd = set(map(tuple, e[cnt == 1].tolist()))
+    ring = [tm.coarse, tm.wall0, tm.fine, tm.wall1]
+    sides = {tuple(sorted(x)) for side in ring for x in zip(side[:-1].tolist(), side[1:].tolist())}
+    assert bnd == sides
+    # the walls run straight from corner to corner, with different points on each
+    for w, a0, a1 in ((tm.wall0, cn[0], cn[1]), (tm.wall1, cn[3], cn[2])):
+        z = tm.points[w]
+        assert np.abs(((z - a0) * np.conj(a1 - a0)).imag).max() < 1e-12
