@@ -153,9 +153,10 @@ RELAXED_MAX_RAYS = 800
 #: (corners and points on their sides): the paper's construction costs about a thousand quads
 #: per vertex, so larger faces would give as many quads as meshing the whole polygon by it
 FALLBACK_SHARE = 0.5
-#: a mesh with faces that fall back is kept only with at most this many quads per polygon
-#: vertex (the paper's construction on the whole polygon makes 600-1,000)
-FALLBACK_MAX_PER_VERTEX = 500
+#: faces that fall back whose meshes hold more than this many quads per polygon vertex are
+#: given up before the cells around them are meshed (the paper's construction on the whole
+#: polygon makes 400-1,100 per vertex on glyphs)
+FALLBACK_MAX_PER_VERTEX = 1000
 #: times the cells of chords between two faces that fall back are joined to those faces
 MAX_FALLBACK_MERGES = 6
 #: default target edge length, as a fraction of the polygon's diameter
@@ -2507,7 +2508,7 @@ def mesh_partial_layout(
     else:
         return None
     if sum(len(m[2]) for m in face_meshes) > FALLBACK_MAX_PER_VERTEX * n:
-        return None  # the faces alone hold about as many quads as the whole polygon would
+        return None  # the faces alone hold more quads than the whole polygon would
     all_cells = cells
     cells, params, trans = _transition_cells(X, cells, params, size, tips)
     info: LayoutRefinement | None = None
@@ -2953,10 +2954,7 @@ def _fallback_faces(
             pass
     if not partial:
         return None
-    got = mesh_partial_layout(partial[0], size, mesh_face)
-    if got is None or len(got[1]) > FALLBACK_MAX_PER_VERTEX * len(z):
-        return None  # the paper's construction on the whole polygon gives about as many
-    return got
+    return mesh_partial_layout(partial[0], size, mesh_face)
 
 
 def _long_cut_layout(

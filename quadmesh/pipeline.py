@@ -263,8 +263,7 @@ def _run_stages(
                 blocks = None
             timings["verify"] = time.perf_counter() - t0
         if blocks is not None:
-            report("done", 1.0)
-            return MeshResult(
+            block_result = MeshResult(
                 polygon=poly,
                 options=options,
                 decomposition=None,
@@ -279,6 +278,10 @@ def _run_stages(
                 blocks=blocks,
                 mesh_origin=mesh_origin,
             )
+            if blocks.fallback_faces:
+                return _fewer_quads(block_result, polygon, options, run, runner)
+            report("done", 1.0)
+            return block_result
 
     if notes is not None and fallback:
         notes["fallback"] = fallback
@@ -639,6 +642,43 @@ def _mesh_part(
     finally:
         _nesting.value = depth
     return None if (r.mesh_origin or (r.origin and not moved_ok)) else r
+
+
+def _fewer_quads(
+    block_result: MeshResult,
+    polygon: object,
+    options: MeshOptions,
+    run: Run | None,
+    runner: PieceRunner,
+) -> MeshResult:
+    """A block mesh with faces that fell back to the paper's construction, or the paper's
+    construction on the whole polygon, whichever has fewer quads: the face meshes' clustered
+    points, carried along chords where no transition cell takes them, can outnumber the
+    quads the blocks save (measured on glyphs: STIX "X" 32,949 against 101,036, but STIX "2"
+    26,355 against 22,576). The whole polygon's run is the one a layout that did not close
+    at all would have had."""
+    n_b = block_result.mesh.n_quads
+    try:
+        whole = _run_stages(
+            polygon, options, run, runner, blocks_failed="(blocks with faces falling back)"
+        )
+    except Cancelled:
+        raise
+    except QuadmeshError:
+        return block_result
+    if run is not None:
+        run.enter("done", 1.0)
+    if n_b <= whole.mesh.n_quads:
+        return block_result
+    k = len(block_result.blocks.fallback_faces)
+    return replace(
+        whole,
+        fallback=(
+            f"a block layout with {k} face{'s' if k > 1 else ''} meshed by the paper's "
+            f"construction had {n_b:,} quads, more than the paper's construction on the whole "
+            f"polygon ({whole.mesh.n_quads:,}); meshed by the paper's construction"
+        ),
+    )
 
 
 def _block_sources(n_quads: int, layout: Any) -> np.ndarray:
