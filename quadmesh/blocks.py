@@ -61,6 +61,7 @@ from .cells import (
     refine_layout,
 )
 from .errors import QuadmeshError
+from .geometry import unpaired_edges
 from .polygon import interior_angles
 from .progress import checkpoint
 from .transition import TransitionMesh
@@ -2481,9 +2482,7 @@ def mesh_partial_layout(
                     ch.edge_id(u, v)
                 except ValueError:
                     continue  # a side on the polygon's boundary
-                d = X[v] - X[u]
-                t = ((fz[chain] - X[u]) * np.conj(d)).real / (abs(d) ** 2)
-                t[0], t[-1] = 0.0, 1.0
+                t = _side_params(X, u, v, fz[chain])
                 if np.any(np.diff(t) <= 0):
                     return None
                 params[(u, v)] = t
@@ -2852,10 +2851,7 @@ def _boundary_chains(
         if d[j] > 1e-12 * scale:
             return None
         at[k] = j
-    e = np.stack([fq, np.roll(fq, -1, axis=1)], axis=-1).reshape(-1, 2)
-    key = np.minimum(e[:, 0], e[:, 1]) * len(fz) + np.maximum(e[:, 0], e[:, 1])
-    uniq, cnt = np.unique(key, return_counts=True)
-    bnd = e[np.isin(key, uniq[cnt == 1])]
+    bnd, _consistent = unpaired_edges(fq)
     nxt = np.full(len(fz), -1, dtype=np.int64)
     nxt[bnd[:, 0]] = bnd[:, 1]
     chains = []
