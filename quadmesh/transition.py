@@ -243,7 +243,9 @@ class TransitionMesh:
         wall0: point indices along the side p = 0, u ascending (from the coarse side).
         wall1: point indices along the side p = 1, u ascending.
         u: the wall parameters of ``wall0`` and ``wall1`` (both walls carry the same, except
-            that the wall of a parity row (``parity``) carries its point ``W`` too).
+            that the wall of a parity row (``parity``) carries its point ``W`` too, and that
+            after ``transition_cascade(straighten=True)`` they are ``wall0``'s: ``wall1``'s
+            differ and are read from its points).
         p_coarse: the coarse side's parameters (from c0 to c3).
         margin: smallest distance (degrees) of the placed angles from 60° and 120° (the exact
             120° angles at the valence-3 vertices excepted).
@@ -821,6 +823,8 @@ def transition_cascade(
     the cell (without ``partial``)."""
     cn = np.asarray(corners, dtype=np.complex128)
     pf = np.asarray(p_fine, dtype=np.float64)
+    if even not in ("smooth", "uniform"):
+        raise ValueError(f"even must be 'smooth' or 'uniform', got {even!r}")
     if straighten:
         got = _straightened(cn, pf, n_coarse, partial, n_along, budget, tilt, even, reuse)
         if got is not None:
@@ -841,10 +845,8 @@ def transition_cascade(
     if want > 0 and ratio.max() > UNEVEN:
         if even == "uniform":
             q_even = np.linspace(0.0, 1.0, pf.size)
-        elif even == "smooth":
-            q_even = _even_out(pf, EVEN_PASSES)
         else:
-            raise ValueError(f"even must be 'smooth' or 'uniform', got {even!r}")
+            q_even = _even_out(pf, EVEN_PASSES)
         width = float(np.abs(cn[2] - cn[1]))
         along = float(min(abs(cn[1] - cn[0]), abs(cn[2] - cn[3])))
         du = float(np.abs(q_even - pf).max()) * width / np.tan(np.radians(EVEN_TILT)) / along
