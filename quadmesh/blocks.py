@@ -2358,22 +2358,16 @@ def _keep_partial(
     cand = PartialLayout(z, P, tuple(faces), frozenset(wrong), pm.copy(), own.copy(), cut_arr)
     if partial and partial[0].score <= cand.score:
         return
+    # a point's corner is new unless it is an uncut polygon corner (or a tip, or in ``own``);
+    # the polygon's corners above 120° were cut (or left uncut by the relaxed search)
+    uncut = np.zeros(len(P), dtype=bool)
+    uncut[:n] = _angles_deg(z) <= ANGLE_MAX + ANGLE_TOL
     for k in wrong:
         f = faces[k]
-        a = _angles_deg(P[f])
-        new = ~(own[f] | pm[f] | (f < n) & ~_cut_corner(z, f, n))
-        if np.any(new & (a < ANGLE_MIN - ANGLE_TOL)):
+        new = ~(own[f] | pm[f] | uncut[f])
+        if np.any(new & (_angles_deg(P[f]) < ANGLE_MIN - ANGLE_TOL)):
             return
     partial[:] = [cand]
-
-
-def _cut_corner(z: NDArray[np.complex128], f: NDArray[np.int64], n: int) -> NDArray[np.bool_]:
-    """Of the points ``f``, the polygon corners above 120° (those that were cut); False for the
-    other points."""
-    theta = np.full(len(f), 0.0)
-    at = f < n
-    theta[at] = _angles_deg(z)[f[at]]
-    return at & (theta > ANGLE_MAX + ANGLE_TOL)
 
 
 def _points_on_sides(
