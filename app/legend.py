@@ -67,6 +67,8 @@ def legend_entries(result: Any, visible: set[str], piece: int = 0) -> list[tuple
             out.append(("block_layout", label, BLOCK_COLORS["cuts"]))
         if len(block_layout_edges(layout)[0]):
             out.append(("block_layout", "coarse cell edge", BLOCK_COLORS["cell edges"]))
+        if getattr(layout, "local_faces", ()):
+            out.append(("block_layout", "face laid out on its own", BLOCK_COLORS["local faces"]))
         if getattr(layout, "fallback_faces", ()):
             out.append(
                 (

@@ -1579,6 +1579,8 @@ class MainWindow(QMainWindow):
                 (f"{lay.cut_noun}s", f"{len(lay.cuts)}"),
                 ("block size", "default (d/20)" if size is None else f"{size:.4g}"),
             ]
+            if getattr(lay, "local_faces", ()):
+                rows.append(("faces laid out alone", f"{len(lay.local_faces)}"))
             if getattr(lay, "fallback_faces", ()):
                 rows.append(("faces by the paper", f"{len(lay.fallback_faces)}"))
         else:

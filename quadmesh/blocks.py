@@ -146,10 +146,13 @@ LADDER_MAX_EDGE = 2.5
 #: costs about its length over the diameter, at most a few units)
 UNSERVED_COST = 20.0
 #: wall-clock seconds of the relaxed search (:func:`mesh_partial_layout`)
-RELAXED_SECONDS = 1.0
+RELAXED_SECONDS = 3.0
 #: the relaxed search runs only with at most this many candidate cuts (its integer program
-#: overruns its time several times over on glyphs with 1,200-1,300)
-RELAXED_MAX_RAYS = 800
+#: overruns its time on glyphs with 1,200-1,300: 4.4 s of 1 s on cmr10 "g")
+RELAXED_MAX_RAYS = 1500
+#: rounds of the straight-cut searches kept as partial layouts (fewest unsplit faces first):
+#: where one round's faces find no layout of their own, another's may
+PARTIAL_KEEP = 3
 #: the faces that fall back may have at most this share of the polygon's vertex count in all
 #: (corners and points on their sides): the paper's construction costs about a thousand quads
 #: per vertex, so larger faces would give as many quads as meshing the whole polygon by it
@@ -160,6 +163,18 @@ FALLBACK_SHARE = 0.5
 FALLBACK_MAX_PER_VERTEX = 1000
 #: times the cells of chords between two faces that fall back are joined to those faces
 MAX_FALLBACK_MERGES = 6
+#: collar spacings tried for a face laid out on its own (:func:`_face_layout`), as fractions
+#: of the size: a face is often too narrow for a lattice core at the size itself
+FACE_RING_SIZES = (1.0, 0.25)
+#: wall-clock seconds of each collar tried for such a face
+FACE_RING_SECONDS = 2.0
+#: how many times a face laid out on its own may itself leave faces that are laid out on their
+#: own (by the face's relaxed cut search)
+FACE_DEPTH = 1
+#: wall-clock seconds for carrying the points of the faces laid out on their own through the
+#: other cells (a safety net: where two faces' points chase each other round a ring of cells
+#: the splits never settle, and each round is slower than the last; cmr10 "B" ran for minutes)
+FACE_RESOLVE_SECONDS = 5.0
 #: default target edge length, as a fraction of the polygon's diameter
 DEFAULT_SIZE_RATIO = 1.0 / 20.0
 
@@ -202,6 +217,11 @@ class BlockLayout:
         fallback_quads: how many quads of the mesh those faces hold (the mesh's last ones).
         fallback_source: per quad of those faces, the stage of the paper's construction that
             made it (the codes of :data:`quadmesh.io.STAGE_KINDS`).
+        local_faces: faces of a straight-cut layout that did not split with the other faces'
+            cuts and were laid out on their own instead (straight cuts inside the face, a
+            collar, or the face's own partial layout: :func:`_face_layout`); their cells are
+            part of ``cells``: (k,) complex polygons, their corners and every layout point on
+            their sides.
     """
 
     polygon: NDArray[np.complex128]
@@ -220,6 +240,7 @@ class BlockLayout:
     fallback_faces: tuple[NDArray[np.complex128], ...] = ()
     fallback_quads: int = 0
     fallback_source: NDArray[np.int8] = field(default_factory=lambda: np.zeros(0, np.int8))
+    local_faces: tuple[NDArray[np.complex128], ...] = ()
 
     @property
     def n_cells(self) -> int:
@@ -2347,16 +2368,17 @@ def _keep_partial(
     own: NDArray[np.bool_],
     cuts: list[list[complex]],
 ) -> None:
-    """Keep this round in ``partial`` (one item) if its faces could fall back and it leaves
-    fewer of them than the round kept so far.  A face can fall back when none of its new
+    """Keep this round in ``partial`` (at most :data:`PARTIAL_KEEP` rounds, fewest faces left
+    unsplit first) if its faces could fall back.  A face can fall back when none of its new
     corners lies below 60° (the paper's construction keeps a corner up to 120° whole and
-    splits larger ones into parts in range, but cannot raise one below 60°)."""
+    splits larger ones into parts in range, but cannot raise one below 60°; a face laid out on
+    its own cannot either)."""
     n = len(z)
     if not wrong or len(wrong) == len(faces):
         return
     cut_arr = np.array(cuts, dtype=np.complex128).reshape(-1, 2)
     cand = PartialLayout(z, P, tuple(faces), frozenset(wrong), pm.copy(), own.copy(), cut_arr)
-    if partial and partial[0].score <= cand.score:
+    if len(partial) >= PARTIAL_KEEP and partial[-1].score <= cand.score:
         return
     # a point's corner is new unless it is an uncut polygon corner (or a tip, or in ``own``);
     # the polygon's corners above 120° were cut (or left uncut by the relaxed search)
@@ -2367,7 +2389,9 @@ def _keep_partial(
         new = ~(own[f] | pm[f] | uncut[f])
         if np.any(new & (_angles_deg(P[f]) < ANGLE_MIN - ANGLE_TOL)):
             return
-    partial[:] = [cand]
+    partial.append(cand)
+    partial.sort(key=lambda p: p.score)
+    del partial[PARTIAL_KEEP:]
 
 
 def _points_on_sides(
@@ -2397,15 +2421,196 @@ FaceMesher = Callable[
 ]
 
 
+def _simple_loops(face: NDArray[np.int64]) -> list[NDArray[np.int64]]:
+    """The boundary of ``face`` cut into loops at the points it passes twice (a face of the
+    cuts' arrangement that touches itself, or two faces traced as one through a shared side):
+    each time the walk comes back to a point on it, the loop since that point is split off.
+    Loops of fewer than 3 points are dropped."""
+    out: list[list[int]] = []
+    stack: list[int] = []
+    for v in face.tolist():
+        if v in stack:
+            i = stack.index(v)
+            out.append(stack[i:])
+            del stack[i + 1 :]
+        else:
+            stack.append(v)
+    out.append(stack)
+    return [np.asarray(lp, dtype=np.int64) for lp in out if len(lp) >= 3]
+
+
+def _is_simple(w: NDArray[np.complex128]) -> bool:
+    """Whether the closed polygon ``w`` has distinct points (at 1e-12 of its size) and no two
+    sides that meet other than at a shared corner."""
+    import shapely
+
+    scale = float(np.max(np.abs(w - w[0])))
+    if len(w) < 3 or scale <= 0:
+        return False
+    key = np.round(w / scale, 12)
+    if len(np.unique(key)) < len(w):
+        return False
+    return bool(shapely.LinearRing(np.column_stack([w.real, w.imag])).is_simple)
+
+
+def _signed_area(w: NDArray[np.complex128]) -> float:
+    return 0.5 * float(np.sum((np.conj(w) * np.roll(w, -1)).imag))
+
+
+def _face_layout(
+    w: NDArray[np.complex128], size: float, depth: int
+) -> tuple[NDArray[np.complex128], NDArray[np.int64], NDArray[np.complex128]] | None:
+    """A layout of the face ``w`` (a simple counter-clockwise polygon: a face's corners and
+    every layout point on its sides) on its own: straight cuts inside it
+    (:func:`block_layout`), else a collar around a lattice core at the spacings of
+    :data:`FACE_RING_SIZES`, else (``depth`` > 0) the face's own partial layout with its faces
+    that do not split laid out in turn (:func:`_lay_out`).  Returns ``(points, cells, cuts)``
+    with ``points[:len(w)] == w`` and every new cell corner in [60°, 120°], or None.
+
+    Measured on the glyphs of two fonts: the faces that a glyph's cuts leave unsplit are small
+    (a bracket fillet's strip, a stroke's end, a crotch); the cut search on one of them alone
+    has far fewer cut slots to serve at once, and the points on its sides are candidate ends
+    for joins, so it closes where the glyph's did not."""
+    if not _is_simple(w):
+        return None
+    partial: list[PartialLayout] = []
+    try:
+        lay = block_layout(w, size, partial)
+        return lay.points, lay.cells, lay.cuts
+    except BlockLayoutError as exc:
+        why = exc.args[0]
+    from .rings import RingLayoutError, ring_layout
+
+    for f in FACE_RING_SIZES:
+        try:
+            lay = ring_layout(w, f * size, seconds=FACE_RING_SECONDS)
+            return lay.points, lay.cells, lay.cuts
+        except RingLayoutError:
+            pass
+    if depth <= 0:
+        return None
+    _relaxed_partial(w, partial, why)
+    for part in partial:
+        got = _lay_out(part, size, depth - 1, rest_ok=False)
+        if got is not None:
+            return got.points, got.cells, got.cuts
+    return None
+
+
+@dataclass(frozen=True)
+class _LaidOut:
+    """Cells of a partial layout (:func:`_lay_out`): the faces that split, and the faces laid
+    out on their own; ``rest`` the faces (point ids, simple loops) left for another mesher."""
+
+    points: NDArray[np.complex128]
+    cells: NDArray[np.int64]
+    cuts: NDArray[np.complex128]
+    local: tuple[NDArray[np.complex128], ...]
+    rest: tuple[NDArray[np.int64], ...]
+
+
+def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _LaidOut | None:
+    """The cells of a partial layout: its faces that split (:func:`_split_cells`), and each
+    face that did not cut into simple loops (:func:`_simple_loops`), every loop with the
+    layout points on its sides laid out on its own (:func:`_face_layout`) and its cells added;
+    the points that then lie inside other cells' sides are carried on along grid lines
+    (:func:`_resolve_hanging`).  With ``rest_ok`` a loop that finds no layout is returned in
+    ``rest`` (for the paper's construction); otherwise None, as when the cells do not settle or
+    do not tile the polygon exactly."""
+    z = part.polygon
+    P = part.points
+    good = [k for k in range(len(part.faces)) if k not in part.wrong]
+    gf = [part.faces[k] for k in good]
+    if not gf:
+        X, cells, bad = P, np.zeros((0, 4), dtype=np.int64), []
+    elif all(len(f) == 4 for f in gf):
+        X, cells, bad = P, np.array(gf, dtype=np.int64).reshape(-1, 4), []
+    else:
+        X, cells, bad = _split_cells(P, gf, part.tip_mask, part.own, separate=True)
+        if bad:
+            # each face of k corners gave k consecutive cells
+            owner = np.repeat(np.arange(len(gf)), [len(f) for f in gf])
+            cells = cells[~np.isin(owner, bad)]
+    wrong = sorted(part.wrong | {good[b] for b in bad})
+    X = np.asarray(X, dtype=np.complex128)
+    used = np.unique(np.concatenate([cells.ravel(), np.arange(len(P))]))
+    total = abs(_signed_area(z))
+    loops: list[NDArray[np.int64]] = []
+    for k in wrong:
+        face = np.asarray(part.faces[k], dtype=np.int64)
+        ls = _simple_loops(face)
+        areas = [_signed_area(X[lp]) for lp in ls]
+        if min(areas) <= 0 or abs(sum(areas) - _signed_area(X[face])) > 1e-9 * total:
+            if not rest_ok:
+                return None
+            ls = [face]
+        loops.extend(ls)
+    all_cells = [cells]
+    cuts = [np.asarray(part.cuts, dtype=np.complex128).reshape(-1, 2)]
+    local: list[NDArray[np.complex128]] = []
+    rest: list[NDArray[np.int64]] = []
+    # new points found again by position: two loops of one face, or two faces side by side,
+    # may each put a point at the same place on the side they share
+    pts_list = X.tolist()
+    grid = _PointIndex(pts_list)
+    for lp in loops:
+        ids = np.asarray(_points_on_sides(X, lp, used), dtype=np.int64)
+        checkpoint()
+        got = _face_layout(np.asarray(pts_list)[ids], size, depth)
+        if got is None:
+            if not rest_ok:
+                return None
+            rest.append(lp)
+            continue
+        pts, cc, cc_cuts = got
+        new_ids = [grid.add(complex(w)) for w in pts[len(ids) :]]
+        gmap = np.concatenate([ids, np.asarray(new_ids, dtype=np.int64)])
+        local.append(np.asarray(pts_list)[ids])
+        all_cells.append(gmap[cc])
+        cuts.append(np.asarray(cc_cuts, dtype=np.complex128).reshape(-1, 2))
+    X = np.asarray(pts_list, dtype=np.complex128)
+    cells = np.concatenate(all_cells)
+    if len(cells) == 0:
+        return None
+    pm = np.zeros(len(X), dtype=bool)
+    pm[: len(part.tip_mask)] = part.tip_mask
+    fixed = _resolve_hanging(X, cells, pm, deadline=time.perf_counter() + FACE_RESOLVE_SECONDS)
+    if fixed is None:
+        return None
+    X, cells = fixed
+    a = X[cells]
+    cell_area = 0.5 * np.sum((np.conj(a) * np.roll(a, -1, axis=1)).imag, axis=1)
+    covered = float(cell_area.sum()) + sum(_signed_area(X[lp]) for lp in rest)
+    if np.any(cell_area <= 0) or abs(covered - total) > 1e-9 * total:
+        return None
+    return _LaidOut(X, cells, np.concatenate(cuts), tuple(local), tuple(rest))
+
+
+def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout], why: str) -> None:
+    """Rounds of a relaxed straight-cut search, in which corners may stay without a cut (their
+    faces then do not split), added to ``partial`` when it is empty, unless the first search
+    gave up on too many conflicting pairs of candidates (``why``, its message: the relaxed one
+    would too)."""
+    if not partial and "pairs of candidate cuts conflict" not in why:
+        try:
+            _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
+        except BlockLayoutError:
+            pass
+
+
 def mesh_partial_layout(
-    part: PartialLayout, size: float, mesh_face: FaceMesher
+    part: PartialLayout, size: float, mesh_face: FaceMesher | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
-    """A block mesh in which the faces that did not split fall back to another mesher.
+    """A block mesh of a partial layout: the faces that did not split laid out on their own,
+    or falling back to another mesher.
 
     The faces that split become cells (:func:`_split_cells`, T-junctions carried to the
     boundary by :func:`_resolve_hanging`); every face of ``part.wrong`` (and any face whose
-    split fails now) is meshed on its own by ``mesh_face`` (the paper's construction), as the
-    polygon of its corners and every layout point on its sides.  The cell next to a face side
+    split fails now) is first laid out on its own (:func:`_lay_out`, :func:`_face_layout`:
+    straight cuts inside the face, a collar, or the face's own partial layout), its cells
+    joining the others; only the faces left then are meshed by ``mesh_face`` (the paper's
+    construction; without it they make the layout fail), each as the polygon of its corners
+    and every layout point on its sides.  The cell next to such a face side
     goes down from the face mesh's points on it to the count the size asks for by a
     transition cascade where it has room (:func:`_transition_cells`, the cells after it along
     the chord going on where it has not); elsewhere the face mesh's points become the side's
@@ -2419,36 +2624,39 @@ def mesh_partial_layout(
     the faces are meshed again, at most :data:`MAX_FALLBACK_MERGES` times.
 
     Returns ``(points, quads, layout, refinement)`` as :func:`mesh_blocks` does, the layout's
-    ``fallback_faces`` the faces meshed by ``mesh_face``; None when a face's mesh fails, the
+    ``local_faces`` the faces laid out on their own, its ``fallback_faces`` the faces meshed
+    by ``mesh_face``; None when a face's mesh fails, the
     merged faces are no simple polygons or hold more than :data:`FALLBACK_SHARE` of the
     polygon's vertex count, or the merging does not settle.  The caller verifies the mesh."""
     z = part.polygon
     n = len(z)
-    P = part.points
-    good = [k for k in range(len(part.faces)) if k not in part.wrong]
-    gf = [part.faces[k] for k in good]
-    if all(len(f) == 4 for f in gf):
-        X, cells, bad = P, np.array(gf, dtype=np.int64).reshape(-1, 4), []
-    else:
-        X, cells, bad = _split_cells(P, gf, part.tip_mask, part.own, separate=True)
-        if bad:
-            # each face of k corners gave k consecutive cells
-            owner = np.repeat(np.arange(len(gf)), [len(f) for f in gf])
-            cells = cells[~np.isin(owner, bad)]
-    wrong = sorted(part.wrong | {good[b] for b in bad})
-    if len(cells) == 0:
+    laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
+    if laid is None:
         return None
-    pm = np.zeros(len(X), dtype=bool)
-    pm[: len(part.tip_mask)] = part.tip_mask
-    fixed = _resolve_hanging(X, cells, pm)
-    if fixed is None:
-        return None
-    X, cells = fixed
-    used = np.unique(np.concatenate([cells.ravel(), np.arange(len(P))]))
-    face_ids = _merged_faces([_points_on_sides(X, part.faces[k], used) for k in wrong])
+    X, cells = laid.points, laid.cells
+    tips = np.flatnonzero(part.tip_mask[:n]).astype(np.int64)
+    if not laid.rest:
+        try:
+            pts, quads, info = refine_layout(X, cells, size=size, tips=tips.tolist(), check=False)
+        except ValueError:
+            return None
+        lay = BlockLayout(
+            polygon=z,
+            points=X,
+            cuts=laid.cuts,
+            faces=part.faces,
+            cells=cells,
+            tips=tips,
+            split=True,
+            angles=cell_angles(X[cells]),
+            local_faces=laid.local,
+        )
+        return pts, quads, lay, info
+    assert mesh_face is not None  # rest_ok
+    used = np.unique(np.concatenate([cells.ravel(), np.arange(len(part.points))]))
+    face_ids = _merged_faces([_points_on_sides(X, lp, used) for lp in laid.rest])
     if face_ids is None:
         return None
-    tips = np.flatnonzero(part.tip_mask[:n]).astype(np.int64)
     meshed: dict[tuple[int, ...], tuple] = {}
     for _ in range(MAX_FALLBACK_MERGES + 1):
         if len(cells) == 0:
@@ -2588,7 +2796,7 @@ def mesh_partial_layout(
     lay = BlockLayout(
         polygon=z,
         points=X,
-        cuts=part.cuts,
+        cuts=laid.cuts,
         faces=part.faces,
         cells=all_cells,
         tips=tips,
@@ -2597,6 +2805,7 @@ def mesh_partial_layout(
         fallback_faces=tuple(X[ids] for ids in face_ids),
         fallback_quads=len(quads) - n_block_quads,
         fallback_source=np.concatenate([m[4] for m in face_meshes]),
+        local_faces=laid.local,
     )
     return pts[keep], remap[quads], lay, info
 
@@ -2874,10 +3083,11 @@ def mesh_blocks(
     The layout is the first of: straight cuts (:func:`block_layout`); a ladder of straight
     cells along the polygon as one corridor (:func:`_ladder_mesh`); a collar around a lattice
     core (:func:`quadmesh.rings.ring_layout`); straight cuts again with a longer search when
-    the first ran out of time (:func:`_long_cut_layout`); with ``mesh_face`` (a mesher for one
-    face, the paper's construction), last, the straight cuts of the search round that left the
-    fewest faces unsplit, those faces meshed by ``mesh_face`` and glued to the cells
-    (:func:`mesh_partial_layout`; the layout's ``fallback_faces`` name them).
+    the first ran out of time (:func:`_long_cut_layout`); last, the straight cuts of the search
+    round that left the fewest faces unsplit, each such face laid out on its own (its
+    ``local_faces``) or, with ``mesh_face`` (a mesher for one face, the paper's construction),
+    meshed by it and glued to the cells (:func:`mesh_partial_layout`; the layout's
+    ``fallback_faces`` name them).
 
     Returns:
         ``(points, quads, layout, refinement)``; ``points[:n]`` are the polygon's vertices;
@@ -2907,7 +3117,7 @@ def mesh_blocks(
             lay = ring_layout(z, h)
         except RingLayoutError as ring_exc:
             lay = _long_cut_layout(z, exc.args[0], partial)
-            if lay is None and mesh_face is not None:
+            if lay is None:
                 got = _fallback_faces(z, h, partial, mesh_face, exc.args[0])
                 if got is not None:
                     return got
@@ -2929,22 +3139,27 @@ def _fallback_faces(
     z: NDArray[np.complex128],
     size: float,
     partial: list[PartialLayout],
-    mesh_face: FaceMesher,
+    mesh_face: FaceMesher | None,
     why: str = "",
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
-    """The mesh of the searches' partial layout with its unsplit faces meshed by
-    ``mesh_face`` (:func:`mesh_partial_layout`); where the searches kept none (no set of
-    cuts served every corner), first a relaxed search in which corners may stay without a cut
-    (their faces fall back), unless the first search gave up on too many conflicting pairs of
-    candidates (``why``, its message: the relaxed one would too)."""
-    if not partial and "pairs of candidate cuts conflict" not in why:
-        try:
-            _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
-        except BlockLayoutError:
-            pass
-    if not partial:
+    """The mesh of a partial layout whose unsplit faces are all laid out on their own: the
+    searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`);
+    failing that, with ``mesh_face``, the round with the fewest unsplit faces, the faces that
+    find no layout of their own meshed by ``mesh_face`` (:func:`mesh_partial_layout`)."""
+    for part in partial:
+        got = mesh_partial_layout(part, size)
+        if got is not None:
+            return got
+    relaxed: list[PartialLayout] = []
+    _relaxed_partial(z, relaxed, why)
+    for part in relaxed:
+        got = mesh_partial_layout(part, size)
+        if got is not None:
+            return got
+    rounds = sorted(partial + relaxed, key=lambda p: p.score)
+    if mesh_face is None or not rounds:
         return None
-    return mesh_partial_layout(partial[0], size, mesh_face)
+    return mesh_partial_layout(rounds[0], size, mesh_face)
 
 
 def _long_cut_layout(

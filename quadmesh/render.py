@@ -123,12 +123,14 @@ PIECE_PALETTE: tuple[str, ...] = (
     "#ffed6f",
 )
 ANGLE_MIN, ANGLE_MAX = 60.0, 120.0
-#: Colours of the block layout's parts: the coarse cells' edges, the cuts on top, and the faces
-#: meshed by the paper's construction where no block layout closed.
+#: Colours of the block layout's parts: the coarse cells' edges, the cuts on top, the faces
+#: meshed by the paper's construction where no block layout closed, and the faces that did not
+#: split with the others and were laid out on their own.
 BLOCK_COLORS: dict[str, str] = {
     "cuts": LAYER_COLORS["block_layout"],
     "cell edges": "#0b3d91",
     "fallback faces": "#f08c2e",
+    "local faces": "#5aae61",
 }
 CORNER_TITLE = "corner angle (deg)"
 WORST_TITLE = "worst deviation from 90 (deg)"
@@ -638,19 +640,18 @@ def _layer_block_layout(result: Any) -> list[LayerPart]:
     pts = np.asarray(layout.points, dtype=np.complex128)
     a, b = block_layout_edges(layout)
     cuts = np.asarray(layout.cuts, dtype=np.complex128).reshape(-1, 2)
-    faces = list(getattr(layout, "fallback_faces", ()))
-    fill = (
-        [
-            LayerPart(
-                _filled_polygons(faces),
-                color=BLOCK_COLORS["fallback faces"],
-                opacity=0.45,
-                label="faces meshed by the paper's construction",
+    fill = []
+    for key, label in (
+        ("local faces", "faces laid out on their own"),
+        ("fallback faces", "faces meshed by the paper's construction"),
+    ):
+        faces = list(getattr(layout, key.replace(" ", "_"), ()))
+        if faces:
+            fill.append(
+                LayerPart(
+                    _filled_polygons(faces), color=BLOCK_COLORS[key], opacity=0.45, label=label
+                )
             )
-        ]
-        if faces
-        else []
-    )
     return [
         *fill,
         LayerPart(

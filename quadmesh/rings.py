@@ -833,13 +833,15 @@ PLACEMENTS = (
 RING_SECONDS = 40.0
 
 
-def ring_layout(z: NDArray[np.complex128], size: float) -> BlockLayout:
+def ring_layout(
+    z: NDArray[np.complex128], size: float, seconds: float = RING_SECONDS
+) -> BlockLayout:
     """A block layout of the counter-clockwise polygon ``z`` made of a collar and a lattice
     core (see the module docstring), conforming, with every new corner in [60°, 120°].
 
     Lattice spacings of 2, 1 and 1/2 times ``size`` are tried, each at a few placements of the
-    lattice, until a collar closes; the first layout that is conforming and covers the polygon
-    exactly (cell areas sum to its area) is returned as a
+    lattice, until a collar closes or ``seconds`` have passed; the first layout that is
+    conforming and covers the polygon exactly (cell areas sum to its area) is returned as a
     :class:`~quadmesh.blocks.BlockLayout` with ``kind="ring"``; its ``cuts`` are the spokes.
 
     Raises:
@@ -854,12 +856,12 @@ def ring_layout(z: NDArray[np.complex128], size: float) -> BlockLayout:
     e = np.roll(z, -1) - z
     phi0 = float(np.angle(e[np.argmax(np.abs(e))]))
     area = signed_area(z)
-    deadline = time.perf_counter() + RING_SECONDS
+    deadline = time.perf_counter() + seconds
     why = "no placement of the core was tried"
     for f in SPACINGS:
         for shift, turn, fill in PLACEMENTS:
             if time.perf_counter() > deadline:
-                raise RingLayoutError(f"no ring layout within {RING_SECONDS:g} s ({why})")
+                raise RingLayoutError(f"no ring layout within {seconds:g} s ({why})")
             try:
                 lay = ring_cells(z, f * size, phi0 + math.radians(turn), shift, fill)
             except RingLayoutError as exc:

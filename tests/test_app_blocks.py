@@ -339,32 +339,49 @@ def test_octagon_blocks_by_a_collar_show_spokes(main_window, qtbot):
     assert win.plane.layer_actors("block_layout")
 
 
-def test_faces_that_fell_back_have_a_legend_entry_and_a_filled_part() -> None:
-    """A block layout with a face meshed by the paper's construction: the legend of the block
-    layer names it in the fill's colour, and the layer fills exactly that face."""
+@pytest.mark.parametrize(
+    ("alone", "label", "part", "key"),
+    [
+        (True, "face laid out on its own", "faces laid out on their own", "local faces"),
+        (
+            False,
+            "face meshed by the paper's construction",
+            "faces meshed by the paper's construction",
+            "fallback faces",
+        ),
+    ],
+)
+def test_faces_that_did_not_split_have_a_legend_entry_and_a_filled_part(
+    monkeypatch, alone: bool, label: str, part: str, key: str
+) -> None:
+    """A block layout with a face that did not split with the others (the middle of three
+    unit squares): laid out on its own, or (as if that failed) meshed by the paper's
+    construction. The legend of the block layer names it in the fill's colour, and the layer
+    fills exactly that face."""
     from types import SimpleNamespace
 
+    import quadmesh.blocks as blocks
     from app.legend import legend_entries
     from quadmesh.blocks import PartialLayout, mesh_partial_layout
     from quadmesh.pipeline import _face_mesher
     from quadmesh.render import BLOCK_COLORS
 
+    if not alone:
+        monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth: None)
     z = np.array([0, 1, 2, 3, 3 + 1j, 2 + 1j, 1 + 1j, 1j], dtype=np.complex128)
     faces = tuple(np.array(f) for f in ([0, 1, 6, 7], [1, 2, 5, 6], [2, 3, 4, 5]))
-    part = PartialLayout(
+    strip = PartialLayout(
         z, z.copy(), faces, frozenset({1}), np.zeros(8, dtype=bool), np.ones(8, dtype=bool)
     )
     _pts, _quads, lay, _info = mesh_partial_layout(
-        part, 0.25, _face_mesher(MeshOptions(), None, None)
+        strip, 0.25, _face_mesher(MeshOptions(), None, None)
     )
     r = SimpleNamespace(blocks=lay, decomposition=None, origin=0j)
     got = legend_entries(r, {"block_layout"})
-    assert (
-        "block_layout",
-        "face meshed by the paper's construction",
-        BLOCK_COLORS["fallback faces"],
-    ) in got
+    assert ("block_layout", label, BLOCK_COLORS[key]) in got
+    other = "face meshed by the paper's construction" if alone else "face laid out on its own"
+    assert other not in [e[1] for e in got]
     assert legend_entries(r, set()) == []
-    fill = render.build_layer(r, "block_layout").part("faces meshed by the paper's construction")
-    assert fill.color == BLOCK_COLORS["fallback faces"]
+    fill = render.build_layer(r, "block_layout").part(part)
+    assert fill.color == BLOCK_COLORS[key]
     assert abs(fill.mesh.area - 1.0) < 1e-12
