@@ -46,6 +46,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from itertools import pairwise
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -166,6 +167,10 @@ MAX_FALLBACK_MERGES = 6
 #: collar spacings tried for a face laid out on its own (:func:`_face_layout`), as fractions
 #: of the size: a face is often too narrow for a lattice core at the size itself
 FACE_RING_SIZES = (1.0, 0.25)
+#: ... and, when the face's own partial layout fails too, these (a fine collar carries its
+#: lattice's points across the polygon as grid lines: STIX "l" 3,821 quads, where the paper's
+#: construction for the face gave 90,581)
+FACE_FINE_RING_SIZES = (1.0 / 16.0,)
 #: wall-clock seconds of each collar tried for such a face
 FACE_RING_SECONDS = 2.0
 #: how many times a face laid out on its own may itself leave faces that are laid out on their
@@ -2464,7 +2469,8 @@ def _face_layout(
     every layout point on its sides) on its own: straight cuts inside it
     (:func:`block_layout`), else a collar around a lattice core at the spacings of
     :data:`FACE_RING_SIZES`, else (``depth`` > 0) the face's own partial layout with its faces
-    that do not split laid out in turn (:func:`_lay_out`).  Returns ``(points, cells, cuts)``
+    that do not split laid out in turn (:func:`_lay_out`), else a finer collar
+    (:data:`FACE_FINE_RING_SIZES`).  Returns ``(points, cells, cuts)``
     with ``points[:len(w)] == w`` and every new cell corner in [60°, 120°], or None.
 
     Measured on the glyphs of two fonts: the faces that a glyph's cuts leave unsplit are small
@@ -2481,19 +2487,26 @@ def _face_layout(
         why = exc.args[0]
     from .rings import RingLayoutError, ring_layout
 
-    for f in FACE_RING_SIZES:
-        try:
-            lay = ring_layout(w, f * size, seconds=FACE_RING_SECONDS)
-            return lay.points, lay.cells, lay.cuts
-        except RingLayoutError:
-            pass
-    if depth <= 0:
+    def collar(sizes: tuple[float, ...]) -> BlockLayout | None:
+        for f in sizes:
+            try:
+                return ring_layout(w, f * size, seconds=FACE_RING_SECONDS)
+            except RingLayoutError:
+                pass
         return None
-    _relaxed_partial(w, partial, why)
-    for part in partial:
-        got = _lay_out(part, size, depth - 1, rest_ok=False)
-        if got is not None:
-            return got.points, got.cells, got.cuts
+
+    lay = collar(FACE_RING_SIZES)
+    if lay is not None:
+        return lay.points, lay.cells, lay.cuts
+    if depth > 0:
+        _relaxed_partial(w, partial, why)
+        for part in partial:
+            got = _lay_out(part, size, depth - 1, rest_ok=False)
+            if got is not None:
+                return got.points, got.cells, got.cuts
+    lay = collar(FACE_FINE_RING_SIZES)
+    if lay is not None:
+        return lay.points, lay.cells, lay.cuts
     return None
 
 
@@ -2598,6 +2611,31 @@ def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout], wh
             pass
 
 
+def _partial_result(
+    part: PartialLayout,
+    laid: _LaidOut,
+    X: NDArray[np.complex128],
+    cells: NDArray[np.int64],
+    tips: NDArray[np.int64],
+    **fallback: Any,
+) -> BlockLayout:
+    """The :class:`BlockLayout` of a partial layout meshed by :func:`mesh_partial_layout`:
+    its cells (and those of the faces laid out on their own), with ``fallback`` the fields
+    that describe the faces meshed by the paper's construction."""
+    return BlockLayout(
+        polygon=part.polygon,
+        points=X,
+        cuts=laid.cuts,
+        faces=part.faces,
+        cells=cells,
+        tips=tips,
+        split=True,
+        angles=cell_angles(X[cells]),
+        local_faces=laid.local,
+        **fallback,
+    )
+
+
 def mesh_partial_layout(
     part: PartialLayout, size: float, mesh_face: FaceMesher | None = None
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
@@ -2640,18 +2678,7 @@ def mesh_partial_layout(
             pts, quads, info = refine_layout(X, cells, size=size, tips=tips.tolist(), check=False)
         except ValueError:
             return None
-        lay = BlockLayout(
-            polygon=z,
-            points=X,
-            cuts=laid.cuts,
-            faces=part.faces,
-            cells=cells,
-            tips=tips,
-            split=True,
-            angles=cell_angles(X[cells]),
-            local_faces=laid.local,
-        )
-        return pts, quads, lay, info
+        return pts, quads, _partial_result(part, laid, X, cells, tips), info
     assert mesh_face is not None  # rest_ok
     used = np.unique(np.concatenate([cells.ravel(), np.arange(len(part.points))]))
     face_ids = _merged_faces([_points_on_sides(X, lp, used) for lp in laid.rest])
@@ -2793,19 +2820,15 @@ def mesh_partial_layout(
     keep[quads.ravel()] = True
     keep[:n] = True
     remap = np.cumsum(keep) - 1
-    lay = BlockLayout(
-        polygon=z,
-        points=X,
-        cuts=laid.cuts,
-        faces=part.faces,
-        cells=all_cells,
-        tips=tips,
-        split=True,
-        angles=cell_angles(X[all_cells]),
+    lay = _partial_result(
+        part,
+        laid,
+        X,
+        all_cells,
+        tips,
         fallback_faces=tuple(X[ids] for ids in face_ids),
         fallback_quads=len(quads) - n_block_quads,
         fallback_source=np.concatenate([m[4] for m in face_meshes]),
-        local_faces=laid.local,
     )
     return pts[keep], remap[quads], lay, info
 

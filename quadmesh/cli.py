@@ -282,6 +282,12 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
                 else ""
             )
         )
+        alone, paper = len(lay.local_faces), len(lay.fallback_faces)
+        if alone or paper:
+            print(
+                f"faces that did not split with the others: {alone} laid out on their own"
+                + (f", {paper} meshed by the paper's construction" if paper else "")
+            )
     if result.fallback:
         print(f"note: {result.fallback}")
     if result.options.arc_choice == "sized":

@@ -881,19 +881,27 @@ def _stix(name: str) -> np.ndarray:
     return next(m for m in family_members("glyphs_stix") if m.name == name).vertices
 
 
-def test_glyph_faces_that_do_not_split_are_laid_out_on_their_own(tmp_path: Path) -> None:
+def test_glyph_faces_that_do_not_split_are_laid_out_on_their_own(tmp_path: Path, capsys) -> None:
     # STIX "2": no layout closes (the relaxed search leaves its foot's corner uncut); the face
     # there, laid out on its own by straight cuts, joins the cells: a block mesh of a few
     # hundred quads (22,576 by the paper's construction), no face left for the paper's
-    # construction, every new angle in [60°, 120°] by the outsider's check on the written file
+    # construction, every new angle in [60°, 120°] by the outsider's check on the file that
+    # `quadmesh mesh --method blocks` wrote, which says how the faces were meshed
     glyph = _stix("STIXGeneral_2")
     res = mesh_polygon(glyph, MeshOptions(method="blocks"))
     assert res.fallback is None and res.blocks is not None
-    assert len(res.blocks.local_faces) >= 1 and res.blocks.fallback_faces == ()
+    k = len(res.blocks.local_faces)
+    assert k >= 1 and res.blocks.fallback_faces == ()
     assert np.all(res.quad_source == 4)
     assert res.mesh.n_quads < 1000
+    src = tmp_path / "two_in.json"
+    src.write_text(json.dumps({"vertices": glyph.tolist()}))
     out = tmp_path / "two.json"
-    write_mesh(out, res.mesh)
+    capsys.readouterr()
+    assert cli_main(["mesh", str(src), "-o", str(out), "--method", "blocks"]) == 0
+    said = capsys.readouterr().out
+    assert f"faces that did not split with the others: {k} laid out on their own\n" in said
+    assert "note:" not in said
     got = independent_check(out, glyph, angle_tol=1e-9)
     assert got["n_quads"] == res.mesh.n_quads
 
@@ -903,9 +911,10 @@ def test_a_face_falls_back_when_that_saves_quads_else_the_whole_glyph_does(
 ) -> None:
     # STIX "4": no layout closes, and the face its cuts leave unsplit finds no layout of its
     # own; with that face meshed by the paper's construction the mesh has fewer quads than the
-    # paper's construction on the whole glyph, and is kept.  Computer Modern "4": the face's
-    # points carried along chords give more, so the whole glyph is meshed by the paper's
-    # construction and the result says why.  (A longer relaxed search than the default:
+    # paper's construction on the whole glyph, and is kept.  STIX "2", as if its face found no
+    # layout of its own either: the face's points carried along chords give more (26,355
+    # against 22,576), so the whole glyph is meshed by the paper's construction and the result
+    # says why.  (A longer relaxed search than the default:
     # it ends by running out of rounds, not of time, on a busy machine too.)
     import quadmesh.blocks as blocks
 
@@ -925,10 +934,8 @@ def test_a_face_falls_back_when_that_saves_quads_else_the_whole_glyph_does(
 
     got = independent_check(out, four, angle_tol=ANGLE_TOL_DEG)
     assert got["n_quads"] == res.mesh.n_quads
-    from quadmesh.families import family_members
-
-    cm4 = next(m for m in family_members("glyphs_cm") if m.name == "cmr10_4").vertices
-    two = mesh_polygon(cm4, MeshOptions(method="blocks"))
+    monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth: None)
+    two = mesh_polygon(_stix("STIXGeneral_2"), MeshOptions(method="blocks"))
     assert two.blocks is None and two.pieces
     assert "meshed by the paper's construction had" in two.fallback
     assert f"({two.mesh.n_quads:,})" in two.fallback
