@@ -62,8 +62,8 @@ from .cells import (
     refine_layout,
 )
 from .errors import QuadmeshError
-from .geometry import unpaired_edges
-from .polygon import interior_angles
+from .geometry import quad_signed_areas, unpaired_edges
+from .polygon import interior_angles, signed_area
 from .progress import checkpoint
 from .transition import TransitionMesh
 
@@ -2459,10 +2459,6 @@ def _is_simple(w: NDArray[np.complex128]) -> bool:
     return bool(shapely.LinearRing(np.column_stack([w.real, w.imag])).is_simple)
 
 
-def _signed_area(w: NDArray[np.complex128]) -> float:
-    return 0.5 * float(np.sum((np.conj(w) * np.roll(w, -1)).imag))
-
-
 def _face_layout(
     w: NDArray[np.complex128], size: float, depth: int
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], NDArray[np.complex128]] | None:
@@ -2548,13 +2544,13 @@ def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _La
     wrong = sorted(part.wrong | {good[b] for b in bad})
     X = np.asarray(X, dtype=np.complex128)
     used = np.unique(np.concatenate([cells.ravel(), np.arange(len(P))]))
-    total = abs(_signed_area(z))
+    total = abs(signed_area(z))
     loops: list[NDArray[np.int64]] = []
     for k in wrong:
         face = np.asarray(part.faces[k], dtype=np.int64)
         ls = _simple_loops(face)
-        areas = [_signed_area(X[lp]) for lp in ls]
-        if min(areas) <= 0 or abs(sum(areas) - _signed_area(X[face])) > 1e-9 * total:
+        areas = [signed_area(X[lp]) for lp in ls]
+        if min(areas) <= 0 or abs(sum(areas) - signed_area(X[face])) > 1e-9 * total:
             if not rest_ok:
                 return None
             ls = [face]
@@ -2594,9 +2590,8 @@ def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _La
     if fixed is None:
         return None
     X, cells = fixed
-    a = X[cells]
-    cell_area = 0.5 * np.sum((np.conj(a) * np.roll(a, -1, axis=1)).imag, axis=1)
-    covered = float(cell_area.sum()) + sum(_signed_area(X[lp]) for lp in rest)
+    cell_area = quad_signed_areas(X, cells)
+    covered = float(cell_area.sum()) + sum(signed_area(X[lp]) for lp in rest)
     if np.any(cell_area <= 0) or abs(covered - total) > 1e-9 * total:
         return None
     return _LaidOut(X, cells, np.concatenate(cuts), tuple(local), tuple(rest))
@@ -2640,7 +2635,10 @@ def _partial_result(
 
 
 def mesh_partial_layout(
-    part: PartialLayout, size: float, mesh_face: FaceMesher | None = None
+    part: PartialLayout,
+    size: float,
+    mesh_face: FaceMesher | None = None,
+    laid: _LaidOut | None = None,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
     """A block mesh of a partial layout: the faces that did not split laid out on their own,
     or falling back to another mesher.
@@ -2664,6 +2662,9 @@ def mesh_partial_layout(
     cannot be refined so: its cells join the faces that fall back (:func:`_merged_faces`) and
     the faces are meshed again, at most :data:`MAX_FALLBACK_MERGES` times.
 
+    ``laid``: the round's cells as :func:`_lay_out` made them already (faces it could not lay
+    out in its ``rest``).
+
     Returns ``(points, quads, layout, refinement)`` as :func:`mesh_blocks` does, the layout's
     ``local_faces`` the faces laid out on their own, its ``fallback_faces`` the faces meshed
     by ``mesh_face``; None when a face's mesh fails, the
@@ -2671,8 +2672,9 @@ def mesh_partial_layout(
     polygon's vertex count, or the merging does not settle.  The caller verifies the mesh."""
     z = part.polygon
     n = len(z)
-    laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
     if laid is None:
+        laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
+    if laid is None or (laid.rest and mesh_face is None):
         return None
     X, cells = laid.points, laid.cells
     tips = np.flatnonzero(part.tip_mask[:n]).astype(np.int64)
@@ -3170,22 +3172,32 @@ def _fallback_faces(
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
     """The mesh of a partial layout whose unsplit faces are all laid out on their own: the
     searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`);
-    failing that, with ``mesh_face``, the round with the fewest unsplit faces, the faces that
-    find no layout of their own meshed by ``mesh_face`` (:func:`mesh_partial_layout`)."""
-    for part in partial:
-        got = mesh_partial_layout(part, size)
-        if got is not None:
-            return got
-    relaxed: list[PartialLayout] = []
-    _relaxed_partial(z, relaxed, why)
-    for part in relaxed:
-        got = mesh_partial_layout(part, size)
-        if got is not None:
-            return got
-    rounds = sorted(partial + relaxed, key=lambda p: p.score)
-    if mesh_face is None or not rounds:
+    failing that, with ``mesh_face``, the round with the fewest faces left without a layout of
+    their own, those faces meshed by ``mesh_face`` (:func:`mesh_partial_layout`)."""
+    tried: list[tuple[PartialLayout, _LaidOut]] = []
+
+    def pure(
+        rounds: list[PartialLayout],
+    ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
+        for part in rounds:
+            laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
+            if laid is not None and laid.rest:
+                tried.append((part, laid))
+            elif laid is not None:
+                got = mesh_partial_layout(part, size, laid=laid)
+                if got is not None:
+                    return got
         return None
-    return mesh_partial_layout(rounds[0], size, mesh_face)
+
+    got = pure(partial)
+    if got is None:
+        relaxed: list[PartialLayout] = []
+        _relaxed_partial(z, relaxed, why)
+        got = pure(relaxed)
+    if got is not None or mesh_face is None or not tried:
+        return got
+    part, laid = min(tried, key=lambda t: (len(t[1].rest), t[0].score))
+    return mesh_partial_layout(part, size, mesh_face, laid=laid)
 
 
 def _long_cut_layout(
