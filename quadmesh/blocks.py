@@ -151,6 +151,10 @@ RELAXED_SECONDS = 3.0
 #: the relaxed search runs only with at most this many candidate cuts (its integer program
 #: overruns its time on glyphs with 1,200-1,300: 4.4 s of 1 s on cmr10 "g")
 RELAXED_MAX_RAYS = 1500
+#: no further round is laid out once this many seconds have gone into laying out rounds (a
+#: safety net: each may spend :data:`FACE_RESOLVE_SECONDS` carrying points that never settle;
+#: cmr10 "B" took 90 s to fall back on a busy machine)
+PARTIAL_SECONDS = 30.0
 #: rounds of the straight-cut searches kept as partial layouts (fewest unsplit faces first):
 #: where one round's faces find no layout of their own, another's may
 PARTIAL_KEEP = 3
@@ -1243,8 +1247,36 @@ def _solve(
     # out will do as well (status 1: the time limit was reached with a feasible solution)
     anytime = rel_gap is not None or unserved_cost is not None
     if res.x is None or not (res.status == 0 or (anytime and res.status == 1)):
+        if unserved_cost is not None:
+            return _greedy_cuts(rays, bad, nogoods)
         return None
     return [int(c) for c in np.nonzero(res.x[:nr] > 0.5)[0]]
+
+
+def _greedy_cuts(
+    rays: list[_Ray], bad: list[tuple[int, int]], nogoods: list[list[int]]
+) -> list[int]:
+    """A choice of candidate cuts for the relaxed search when the integer program found none
+    in its time (STIX "b": its first after 15 s): the cheapest candidates first, each taken if
+    its cut slots are still free, it conflicts with no cut taken and completes no ``nogoods``
+    set; T-junction variants and junctions are left out. Slots left free stay without a
+    cut."""
+    conflicts: dict[int, set[int]] = {}
+    for a, b in bad:
+        conflicts.setdefault(a, set()).add(b)
+        conflicts.setdefault(b, set()).add(a)
+    sets = [set(ng) for ng in nogoods]
+    chosen: set[int] = set()
+    served: set[tuple[int, int]] = set()
+    for c in sorted(range(len(rays)), key=lambda k: rays[k].cost):
+        r = rays[c]
+        if r.stop >= 0 or r.arms or served.intersection(r.slots):
+            continue
+        if conflicts.get(c, set()) & chosen or any(ng <= chosen | {c} for ng in sets):
+            continue
+        chosen.add(c)
+        served.update(r.slots)
+    return sorted(chosen)
 
 
 # --------------------------------------------------------------------------- arrangement
@@ -2480,8 +2512,8 @@ def _face_layout(
     try:
         lay = block_layout(w, size, partial)
         return lay.points, lay.cells, lay.cuts
-    except BlockLayoutError as exc:
-        why = exc.args[0]
+    except BlockLayoutError:
+        pass
     from .rings import RingLayoutError, ring_layout
 
     def collar(sizes: tuple[float, ...]) -> BlockLayout | None:
@@ -2496,7 +2528,7 @@ def _face_layout(
     if lay is not None:
         return lay.points, lay.cells, lay.cuts
     if depth > 0:
-        _relaxed_partial(w, partial, why)
+        _relaxed_partial(w, partial)
         for part in partial:
             got = _lay_out(part, size, depth - 1, rest_ok=False)
             if got is not None:
@@ -2597,12 +2629,13 @@ def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _La
     return _LaidOut(X, cells, np.concatenate(cuts), tuple(local), tuple(rest))
 
 
-def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout], why: str) -> None:
+def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout]) -> None:
     """Rounds of a relaxed straight-cut search, in which corners may stay without a cut (their
-    faces then do not split), added to ``partial`` when it is empty, unless the first search
-    gave up on too many conflicting pairs of candidates (``why``, its message: the relaxed one
-    would too)."""
-    if not partial and "pairs of candidate cuts conflict" not in why:
+    faces then do not split), added to ``partial`` when it is empty.  (It searches plain cuts
+    only: where the first search gave up on too many conflicting pairs of candidates, that was
+    with T-junction variants or junctions among them — STIX "b": 185,457 pairs — and the
+    relaxed search may still run.)"""
+    if not partial:
         try:
             _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
         except BlockLayoutError:
@@ -3146,7 +3179,7 @@ def mesh_blocks(
         except RingLayoutError as ring_exc:
             lay = _long_cut_layout(z, exc.args[0], partial)
             if lay is None:
-                got = _fallback_faces(z, h, partial, mesh_face, exc.args[0])
+                got = _fallback_faces(z, h, partial, mesh_face)
                 if got is not None:
                     return got
             if lay is None:
@@ -3168,18 +3201,20 @@ def _fallback_faces(
     size: float,
     partial: list[PartialLayout],
     mesh_face: FaceMesher | None,
-    why: str = "",
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
     """The mesh of a partial layout whose unsplit faces are all laid out on their own: the
     searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`);
     failing that, with ``mesh_face``, the round with the fewest faces left without a layout of
     their own, those faces meshed by ``mesh_face`` (:func:`mesh_partial_layout`)."""
     tried: list[tuple[PartialLayout, _LaidOut]] = []
+    deadline = time.perf_counter() + PARTIAL_SECONDS
 
     def pure(
         rounds: list[PartialLayout],
     ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
         for part in rounds:
+            if time.perf_counter() > deadline:
+                return None
             laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
             if laid is not None and laid.rest:
                 tried.append((part, laid))
@@ -3192,7 +3227,7 @@ def _fallback_faces(
     got = pure(partial)
     if got is None:
         relaxed: list[PartialLayout] = []
-        _relaxed_partial(z, relaxed, why)
+        _relaxed_partial(z, relaxed)
         got = pure(relaxed)
     if got is not None or mesh_face is None or not tried:
         return got

@@ -764,6 +764,21 @@ def test_a_face_that_does_not_split_is_laid_out_on_its_own(tmp_path: Path) -> No
     assert len(mesh_partial_layout(part, 0.25)[1]) == 48
 
 
+def test_greedy_cuts_serve_slots_cheapest_first_without_conflicts_or_nogoods() -> None:
+    # the relaxed search's choice when its integer program finds none in time: cheapest first,
+    # one cut per slot, no conflicting pair, no nogood set completed, no T-junction variant
+    from quadmesh.blocks import _greedy_cuts, _Ray
+
+    def ray(slot: tuple[int, int], cost: float, stop: int = -1) -> _Ray:
+        return _Ray(0, 1 + 0j, 0j, 0, 0.5, -1, [slot], cost, stop=stop)
+
+    rays = [ray((0, 0), 1.0), ray((0, 0), 0.5), ray((1, 0), 0.7), ray((1, 0), 2.0)]
+    rays.append(ray((2, 0), 0.1, stop=1))  # a T-junction variant: never chosen greedily
+    assert _greedy_cuts(rays, [(1, 2)], []) == [1, 3]
+    assert _greedy_cuts(rays, [(1, 2)], [[1, 3]]) == [1]  # slot (1, 0) stays without a cut
+    assert _greedy_cuts(rays, [], []) == [1, 2]
+
+
 def test_simple_loops_split_a_face_traced_through_a_shared_side() -> None:
     # a face of a glyph's cut arrangement (STIX "E") traced as one walk through two faces that
     # share the side 134-82, coming back to 129 and to 23: two simple loops
