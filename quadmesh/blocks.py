@@ -151,10 +151,11 @@ RELAXED_SECONDS = 3.0
 #: the relaxed search runs only with at most this many candidate cuts (its integer program
 #: overruns its time on glyphs with 1,200-1,300: 4.4 s of 1 s on cmr10 "g")
 RELAXED_MAX_RAYS = 1500
-#: no further round is laid out once this many seconds have gone into laying out rounds (a
-#: safety net: each may spend :data:`FACE_RESOLVE_SECONDS` carrying points that never settle;
-#: cmr10 "B" took 90 s to fall back on a busy machine)
-PARTIAL_SECONDS = 30.0
+#: no further round or face is laid out once this many seconds have gone into laying out
+#: rounds (a safety net: each may spend :data:`FACE_RESOLVE_SECONDS` carrying points that never
+#: settle, and each face a whole cut search; cmr10 "B" took 90 s to fall back on a busy
+#: machine, random stars of 40-120 vertices 30-60 s)
+PARTIAL_SECONDS = 20.0
 #: rounds of the straight-cut searches kept as partial layouts (fewest unsplit faces first):
 #: where one round's faces find no layout of their own, another's may
 PARTIAL_KEEP = 3
@@ -2492,14 +2493,15 @@ def _is_simple(w: NDArray[np.complex128]) -> bool:
 
 
 def _face_layout(
-    w: NDArray[np.complex128], size: float, depth: int
+    w: NDArray[np.complex128], size: float, depth: int, deadline: float = math.inf
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], NDArray[np.complex128]] | None:
     """A layout of the face ``w`` (a simple counter-clockwise polygon: a face's corners and
     every layout point on its sides) on its own: straight cuts inside it
     (:func:`block_layout`), else a collar around a lattice core at the spacings of
     :data:`FACE_RING_SIZES`, else (``depth`` > 0) the face's own partial layout with its faces
     that do not split laid out in turn (:func:`_lay_out`), else a finer collar
-    (:data:`FACE_FINE_RING_SIZES`).  Returns ``(points, cells, cuts)``
+    (:data:`FACE_FINE_RING_SIZES`); the face's own partial layout is not tried once
+    ``deadline`` has passed.  Returns ``(points, cells, cuts)``
     with ``points[:len(w)] == w`` and every new cell corner in [60°, 120°], or None.
 
     Measured on the glyphs of two fonts: the faces that a glyph's cuts leave unsplit are small
@@ -2527,10 +2529,10 @@ def _face_layout(
     lay = collar(FACE_RING_SIZES)
     if lay is not None:
         return lay.points, lay.cells, lay.cuts
-    if depth > 0:
+    if depth > 0 and time.perf_counter() < deadline:
         _relaxed_partial(w, partial)
         for part in partial:
-            got = _lay_out(part, size, depth - 1, rest_ok=False)
+            got = _lay_out(part, size, depth - 1, rest_ok=False, deadline=deadline)
             if got is not None:
                 return got.points, got.cells, got.cuts
     lay = collar(FACE_FINE_RING_SIZES)
@@ -2551,14 +2553,21 @@ class _LaidOut:
     rest: tuple[NDArray[np.int64], ...]
 
 
-def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _LaidOut | None:
+def _lay_out(
+    part: PartialLayout,
+    size: float,
+    depth: int,
+    rest_ok: bool,
+    deadline: float = math.inf,
+) -> _LaidOut | None:
     """The cells of a partial layout: its faces that split (:func:`_split_cells`), and each
     face that did not cut into simple loops (:func:`_simple_loops`), every loop with the
     layout points on its sides laid out on its own (:func:`_face_layout`) and its cells added;
     the points that then lie inside other cells' sides are carried on along grid lines
     (:func:`_resolve_hanging`).  With ``rest_ok`` a loop that finds no layout is returned in
     ``rest`` (for the paper's construction); otherwise None, as when the cells do not settle or
-    do not tile the polygon exactly."""
+    do not tile the polygon exactly, or ``deadline`` (a ``time.perf_counter()`` value) passes
+    before a face is laid out."""
     z = part.polygon
     P = part.points
     good = [k for k in range(len(part.faces)) if k not in part.wrong]
@@ -2598,7 +2607,9 @@ def _lay_out(part: PartialLayout, size: float, depth: int, rest_ok: bool) -> _La
     for lp in loops:
         ids = np.asarray(_points_on_sides(X, lp, used), dtype=np.int64)
         checkpoint()
-        got = _face_layout(np.asarray(pts_list)[ids], size, depth)
+        if time.perf_counter() > deadline:
+            return None
+        got = _face_layout(np.asarray(pts_list)[ids], size, depth, deadline)
         if got is None:
             if not rest_ok:
                 return None
@@ -3215,7 +3226,9 @@ def _fallback_faces(
         for part in rounds:
             if time.perf_counter() > deadline:
                 return None
-            laid = _lay_out(part, size, FACE_DEPTH, rest_ok=mesh_face is not None)
+            laid = _lay_out(
+                part, size, FACE_DEPTH, rest_ok=mesh_face is not None, deadline=deadline
+            )
             if laid is not None and laid.rest:
                 tried.append((part, laid))
             elif laid is not None:

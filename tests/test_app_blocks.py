@@ -367,7 +367,7 @@ def test_faces_that_did_not_split_have_a_legend_entry_and_a_filled_part(
     from quadmesh.render import BLOCK_COLORS
 
     if not alone:
-        monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth: None)
+        monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth, deadline=None: None)
     z = np.array([0, 1, 2, 3, 3 + 1j, 2 + 1j, 1 + 1j, 1j], dtype=np.complex128)
     faces = tuple(np.array(f) for f in ([0, 1, 6, 7], [1, 2, 5, 6], [2, 3, 4, 5]))
     strip = PartialLayout(

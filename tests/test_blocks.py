@@ -801,7 +801,7 @@ def test_a_face_that_does_not_split_falls_back_glued_by_transition_cells(
     from quadmesh.blocks import mesh_partial_layout
     from quadmesh.mesh import finalize_mesh
 
-    monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth: None)
+    monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth, deadline=None: None)
 
     z, part = _strip_partial()
     calls: list[np.ndarray] = []
@@ -949,7 +949,7 @@ def test_a_face_falls_back_when_that_saves_quads_else_the_whole_glyph_does(
 
     got = independent_check(out, four, angle_tol=ANGLE_TOL_DEG)
     assert got["n_quads"] == res.mesh.n_quads
-    monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth: None)
+    monkeypatch.setattr(blocks, "_face_layout", lambda w, size, depth, deadline=None: None)
     two = mesh_polygon(_stix("STIXGeneral_2"), MeshOptions(method="blocks"))
     assert two.blocks is None and two.pieces
     assert "meshed by the paper's construction had" in two.fallback
