@@ -2642,10 +2642,10 @@ def _lay_out(
 
 def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout]) -> None:
     """Rounds of a relaxed straight-cut search, in which corners may stay without a cut (their
-    faces then do not split), added to ``partial`` when it is empty.  (It searches plain cuts
-    only: where the first search gave up on too many conflicting pairs of candidates, that was
-    with T-junction variants or junctions among them — STIX "b": 185,457 pairs — and the
-    relaxed search may still run.)"""
+    faces then do not split), added to ``partial`` when it is empty.  It searches plain cuts
+    only, so it runs even where the first search gave up on too many conflicting pairs of
+    candidates with T-junction variants among them (STIX "b": 185,457 pairs); where the plain
+    cuts conflict too much as well, it gives up by itself."""
     if not partial:
         try:
             _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
