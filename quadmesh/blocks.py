@@ -2609,16 +2609,17 @@ def _lay_out(
         checkpoint()
         if time.perf_counter() > deadline:
             return None
-        got = _face_layout(np.asarray(pts_list)[ids], size, depth, deadline)
+        w = np.asarray(pts_list)[ids]
+        got = _face_layout(w, size, depth, deadline)
         if got is None:
             if not rest_ok:
                 return None
             rest.append(lp)
             continue
         pts, cc, cc_cuts = got
-        new_ids = [grid.add(complex(w)) for w in pts[len(ids) :]]
+        new_ids = [grid.add(complex(p)) for p in pts[len(ids) :]]
         gmap = np.concatenate([ids, np.asarray(new_ids, dtype=np.int64)])
-        local.append(np.asarray(pts_list)[ids])
+        local.append(w)
         all_cells.append(gmap[cc])
         cuts.append(np.asarray(cc_cuts, dtype=np.complex128).reshape(-1, 2))
     X = np.asarray(pts_list, dtype=np.complex128)
