@@ -41,9 +41,12 @@ Public functions: :func:`block_layout`, :func:`mesh_blocks`.  Plane points are c
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from itertools import pairwise
 from typing import Any
@@ -1235,15 +1238,16 @@ def _solve(
     cost = np.array([r.cost for r in rays])
     if unserved_cost is not None:
         cost = np.concatenate([cost, np.full(len(slots), unserved_cost)])
-    res = milp(
-        cost,
-        constraints=cons,
-        integrality=np.ones(n_var),
-        bounds=Bounds(0, 1),
-        options={"time_limit": max(seconds, 0.1)}
-        # (HiGHS's presolve spends a second on the dense rows of the junction search)
-        | ({} if rel_gap is None else {"mip_rel_gap": rel_gap, "presolve": False}),
-    )
+    with _quiet_stdout():
+        res = milp(
+            cost,
+            constraints=cons,
+            integrality=np.ones(n_var),
+            bounds=Bounds(0, 1),
+            options={"time_limit": max(seconds, 0.1)}
+            # (HiGHS's presolve spends a second on the dense rows of the junction search)
+            | ({} if rel_gap is None else {"mip_rel_gap": rel_gap, "presolve": False}),
+        )
     # with a gap, or where slots may stay without a cut, a layout found before the time ran
     # out will do as well (status 1: the time limit was reached with a feasible solution)
     anytime = rel_gap is not None or unserved_cost is not None
@@ -1252,6 +1256,31 @@ def _solve(
             return _greedy_cuts(rays, bad, nogoods)
         return None
     return [int(c) for c in np.nonzero(res.x[:nr] > 0.5)[0]]
+
+
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Send what native code writes to the process's standard output (file descriptor 1) to
+    the null device for the duration of the block: HiGHS 1.12 prints a debugging line
+    ("HighsMipSolverData::transformNewIntegerFeasibleSolution tmpSolver.run();") whatever its
+    output options say, on some glyphs' searches, into the output of ``quadmesh mesh``.
+    Python's own ``sys.stdout`` is flushed first; where descriptor 1 cannot be duplicated the
+    block runs as it is."""
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError, AttributeError):
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 1)
+    finally:
+        os.close(saved)
 
 
 def _greedy_cuts(

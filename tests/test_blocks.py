@@ -954,3 +954,16 @@ def test_a_face_falls_back_when_that_saves_quads_else_the_whole_glyph_does(
     assert two.blocks is None and two.pieces
     assert "meshed by the paper's construction had" in two.fallback
     assert f"({two.mesh.n_quads:,})" in two.fallback
+
+
+def test_what_the_integer_program_prints_natively_does_not_reach_the_output(capfd) -> None:
+    # HiGHS 1.12 prints a debugging line on standard output whatever its options say; the
+    # searches' solves run with descriptor 1 sent to the null device, and put it back after
+    import os
+
+    from quadmesh.blocks import _quiet_stdout
+
+    with _quiet_stdout():
+        os.write(1, b"HighsMipSolverData::transformNewIntegerFeasibleSolution\n")
+    os.write(1, b"after\n")
+    assert capfd.readouterr().out == "after\n"
