@@ -170,6 +170,9 @@ FALLBACK_SHARE = 0.5
 #: given up before the cells around them are meshed (the paper's construction on the whole
 #: polygon makes 400-1,100 per vertex on glyphs)
 FALLBACK_MAX_PER_VERTEX = 1000
+#: rounds (fewest faces left to the paper's construction first) whose faces are meshed by it,
+#: until one gives a mesh that passes the strict check (each costs those faces' meshes)
+FALLBACK_ROUNDS = 2
 #: times the cells of chords between two faces that fall back are joined to those faces
 MAX_FALLBACK_MERGES = 6
 #: collar spacings tried for a face laid out on its own (:func:`_face_layout`), as fractions
@@ -3246,7 +3249,9 @@ def _fallback_faces(
     """The mesh of a partial layout whose unsplit faces are all laid out on their own: the
     searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`);
     failing that, with ``mesh_face``, the round with the fewest faces left without a layout of
-    their own, those faces meshed by ``mesh_face`` (:func:`mesh_partial_layout`)."""
+    their own, those faces meshed by ``mesh_face`` (:func:`mesh_partial_layout`), or, when
+    that mesh fails the strict check (:meth:`quadmesh.mesh.QuadMesh.verify`), the next such
+    round (:data:`FALLBACK_ROUNDS` in all)."""
     tried: list[tuple[PartialLayout, _LaidOut]] = []
     deadline = time.perf_counter() + PARTIAL_SECONDS
 
@@ -3274,8 +3279,16 @@ def _fallback_faces(
         got = pure(relaxed)
     if got is not None or mesh_face is None or not tried:
         return got
-    part, laid = min(tried, key=lambda t: (len(t[1].rest), t[0].score))
-    return mesh_partial_layout(part, size, mesh_face, laid=laid)
+    from .mesh import QuadMesh
+
+    for part, laid in sorted(tried, key=lambda t: (len(t[1].rest), t[0].score))[:FALLBACK_ROUNDS]:
+        got = mesh_partial_layout(part, size, mesh_face, laid=laid)
+        # the face meshes' graded points carried along chords can come within rounding of
+        # each other (cmr10 "W": rows 1e-9 apart, a vertex inside a neighbour's edge): such a
+        # mesh would fail the final check, so the next round is tried instead
+        if got is not None and QuadMesh.from_complex(got[0], got[1]).verify(z).ok:
+            return got
+    return None
 
 
 def _long_cut_layout(
