@@ -282,6 +282,15 @@ def _cmd_mesh(args: argparse.Namespace) -> int:
                 else ""
             )
         )
+        from .blocks import UNDERSIZED_FRACTION, default_block_size, undersized_edges
+
+        size = result.options.size or default_block_size(poly.z)
+        small, n_edges, least = undersized_edges(result.mesh, poly.z - result.mesh_origin, size)
+        print(
+            f"element sizes: {small} of {n_edges} edges ({100 * small / n_edges:.3g} %) are "
+            f"shorter than {UNDERSIZED_FRACTION:g} × the smaller of the size ({size:.4g}) and "
+            f"the polygon's local feature size there; the shortest is {least:.3g} × it"
+        )
         alone, paper = len(lay.local_faces), len(lay.fallback_faces)
         if alone or paper:
             print(

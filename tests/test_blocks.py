@@ -1003,3 +1003,36 @@ def test_a_round_whose_face_meshes_leave_a_hanging_vertex_gives_way_to_the_next(
     got = _fallback_faces(z, 0.5, rounds, mesh_face=lambda w: None)
     assert [c is r for c, r in zip(calls, rounds)] == [True, True]
     assert got is not None and np.array_equal(got[1], conforming)
+
+
+def test_undersized_edges_are_those_below_a_quarter_of_size_and_feature_size() -> None:
+    # a unit square in 2 × 2 cells whose bottom row is 0.01 high: its three vertical edges
+    # there are 0.01 long where the size (0.5) and the local feature size (about 0.5 and more
+    # at their midpoints) are far larger; every other edge is 0.5 or 0.99 long
+    from quadmesh.blocks import undersized_edges
+    from quadmesh.mesh import QuadMesh
+
+    x, y = np.meshgrid([0.0, 0.5, 1.0], [0.0, 0.01, 1.0])
+    pts = (x + 1j * y).ravel()
+    g = np.arange(9).reshape(3, 3)
+    quads = np.stack([g[:-1, :-1], g[:-1, 1:], g[1:, 1:], g[1:, :-1]], -1).reshape(-1, 4)
+    mesh = QuadMesh.from_complex(pts, quads)
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    small, n_edges, least = undersized_edges(mesh, square, 0.5)
+    assert (small, n_edges) == (3, 12)
+    assert least == pytest.approx(0.01 / 0.5)
+    assert undersized_edges(mesh, square, 0.02)[0] == 0  # a size of 0.02: 0.01 is half of it
+
+
+def test_cli_reports_undersized_edges_of_a_block_mesh(tmp_path: Path, capsys) -> None:
+    # straight cuts give none (the L's smallest edge is 0.88 of the size); the spiral stroke's
+    # round ends are vertex sectors whose graded points run along the whole ladder
+    for name, share in (("l_shape", (0.0, 0.0)), ("stroke_spiral", (30.0, 50.0))):
+        out = tmp_path / f"{name}.json"
+        assert (
+            cli_main(["mesh", str(example_file(name)), "-o", str(out), "--method", "blocks"]) == 0
+        )
+        line = next(s for s in capsys.readouterr().out.splitlines() if s.startswith("element"))
+        pct = float(line.split("(")[1].split(" %")[0])
+        assert share[0] <= pct <= share[1], line
+        assert "shorter than 0.25 × the smaller of the size" in line
