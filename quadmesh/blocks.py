@@ -309,9 +309,10 @@ def undersized_edges(mesh: QuadMesh, polygon: ArrayLike, size: float) -> tuple[i
     being an edge's length over that minimum.
 
     Measured at the default size (d/20) on the bundled examples: none on layouts of straight
-    cuts (corner_5deg's 9.6 % lie next to its 5° tip, which forces them), 0.2–39 % on collars
-    (their spokes bunch towards the core's points) and up to 42 % on ladders whose round ends
-    are vertex sectors (stroke_spiral: the sectors' graded points run along the whole stroke).
+    cuts but next to a tip, which forces them (corner_5deg 9.6 %, right_triangle_10deg 4.0 %);
+    0.2–63 % on collars (their spokes bunch towards the core's points; a heavier cost of thin
+    collar cells changed nothing) and up to 42 % on ladders whose round ends are vertex sectors
+    (stroke_spiral: the sectors' graded points run along the whole stroke).
     """
     _edges, length, lfs = mesh.edge_lfs_ratios(polygon)
     with np.errstate(divide="ignore", invalid="ignore"):
