@@ -128,6 +128,9 @@ class ConformalMapError(QuadmeshError):
     prevertices_kind: str = ""
     #: the other thick pieces (indices) whose map failed too, when the message names several
     other_failed: tuple = ()
+    #: True when the piece has too many vertices for this machine's memory (the map was not
+    #: attempted): no other route through the paper's construction would fare better
+    too_large: bool = False
 
 
 class DiskConstructionError(QuadmeshError):

@@ -327,6 +327,8 @@ def _run_stages(
             try:
                 asm, pieces, thin = _mesh_thick_and_thin(dec, options, report, timings, runner)
             except (ConformalMapError, DiskConstructionError) as exc:
+                if getattr(exc, "too_large", False):
+                    raise  # more vertices than the machine's memory holds a map for
                 # angles out of range after the adaptive loop (or with it off) are no crowding:
                 # no bridge, no other centre
                 crowded = not getattr(exc, "distortion", False)
@@ -472,6 +474,7 @@ def _no_maps(errors: list[ConformalMapError]) -> ConformalMapError:
     )
     err.prevertices, err.prevertices_kind = first.prevertices, first.prevertices_kind
     err.other_failed = tuple(e.piece for e in errors[1:] if e.piece is not None)
+    err.too_large = any(e.too_large for e in errors)
     err.__cause__ = first
     return err
 

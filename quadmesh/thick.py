@@ -120,6 +120,7 @@ def prepare_piece(piece, options: MeshOptions, timings: dict[str, float], dec=No
     except ConformalMapError as exc:
         err = ConformalMapError(f"{what}: {exc.args[0]}", piece=piece.index)
         err.prevertices, err.prevertices_kind = exc.prevertices, exc.prevertices_kind
+        err.too_large = exc.too_large
         raise err from exc
     except (ArithmeticError, np.linalg.LinAlgError) as exc:
         raise ConformalMapError(

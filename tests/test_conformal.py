@@ -424,3 +424,42 @@ def test_far_field_sums_match_long_double_integrands() -> None:
         ref = complex((W[sel].astype(np.clongdouble) * np.exp(L @ bl)).sum())
         assert abs(H0[i] - ref) < 1e-13 * abs(ref)
         assert abs(H1[i] - ref) < 1e-13 * abs(ref)
+
+
+def test_a_map_that_would_not_fit_in_memory_is_refused_before_it_is_solved(monkeypatch) -> None:
+    # the parameter problem's dense arrays take ~300 bytes per squared vertex count (a
+    # 10,000-vertex star passed 23.8 GB before its solve ended): with 1 GB available a
+    # 3,000-gon (2.7 GB) is refused at once, naming how many vertices would fit, and a
+    # 1,000-gon (0.3 GB) is solved
+    import time
+
+    from quadmesh.conformal import diskmap
+
+    monkeypatch.setattr(diskmap, "available_memory", lambda: 1e9)
+    t0 = time.perf_counter()
+    with pytest.raises(ConformalMapError) as info:
+        DiskMap.from_polygon(random_star(3000, 0.9, 1.1, 0))
+    assert time.perf_counter() - t0 < 2.0
+    assert info.value.too_large
+    msg = str(info.value)
+    assert "about 2.7 GB for 3000 vertices" in msg and "about 1581 vertices fit" in msg
+    assert "Simplify the outline" in msg
+    diskmap._memory_check(1000)  # 0.3 GB of 0.75 allowed: no error
+
+
+def test_the_pipeline_refuses_a_polygon_too_large_for_memory_without_other_routes(
+    monkeypatch,
+) -> None:
+    # no arm, bridge or chain is tried for such a part: the message comes at once
+    import time
+
+    from quadmesh import MeshOptions, mesh_polygon
+    from quadmesh.conformal import diskmap
+
+    monkeypatch.setattr(diskmap, "available_memory", lambda: 1e6)
+    t0 = time.perf_counter()
+    with pytest.raises(ConformalMapError) as info:
+        mesh_polygon(random_star(200, 0.8, 1.2, 1), MeshOptions())
+    assert time.perf_counter() - t0 < 10.0
+    assert info.value.too_large and "this machine has available" in str(info.value)
+    assert str(info.value).startswith("[conformal] the part of the polygon through vertices")
