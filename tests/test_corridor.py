@@ -1000,3 +1000,21 @@ def test_wall_ray_casts_find_the_first_boundary_point_as_geos_does():
         a, b = z[edge[found]], np.roll(z, -1)[edge[found]]
         off = np.abs(((q - a) * np.conj(b - a)).imag) / np.abs(b - a)
         assert off.max() <= 1e-12 * diam
+
+
+def test_a_ladder_search_with_too_many_candidate_rungs_stops_at_once(monkeypatch) -> None:
+    # a round outline that is no corridor gives a ladder search a number of candidate rungs
+    # that grows with the square of its vertex count (a 10,000-vertex star held 15.5 GB after
+    # 3 minutes); past MAX_RUNG_CANDIDATES the search stops with a reason, before the arcs
+    import time
+
+    import quadmesh.thin.corridor as corridor
+    from quadmesh.errors import ThinPartError
+
+    z = validate_polygon(load_example("stroke_spiral")).z
+    ladder_layout(z)  # 135,680 candidates: searched
+    monkeypatch.setattr(corridor, "MAX_RUNG_CANDIDATES", 10_000)
+    t0 = time.perf_counter()
+    with pytest.raises(ThinPartError, match="too wide for a ladder of straight cells: 135,680"):
+        ladder_layout(z)
+    assert time.perf_counter() - t0 < 5.0
