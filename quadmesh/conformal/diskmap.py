@@ -65,10 +65,13 @@ _SERIES_EPS = 1e-17
 CROWDING_REJECT = 1e-2
 #: What the prevertices a failed solve carries are when they come from the harmonic measure.
 ESTIMATE_KIND = "harmonic-measure estimate (the map was not solved)"
-#: bytes the parameter problem's dense arrays (Jacobian, its factors, prevertex differences)
-#: take per squared vertex count (measured peak growth of :meth:`DiskMap.from_polygon`: 282 at
-#: n = 1,000, 254 at n = 2,000; a 10,000-vertex star passed 23.8 GB before its solve ended)
-DENSE_BYTES_PER_N2 = 300
+#: bytes the parameter problem's dense arrays take per squared vertex count at their peak: the
+#: integrals' θ-derivatives (2n + 1 complex rows, 32), the prevertex differences (16), the
+#: Jacobian and its LU factors (8 each), the rest made a block of rows at a time. Measured
+#: peak growth of :meth:`DiskMap.from_polygon` on smooth stars: 69 at n = 3,000 (107 at
+#: n = 2,000, where freed arrays of ≤ 32 MB stay with the allocator); it was 254–290 before
+#: the blocks, when a 10,000-vertex star passed 23.8 GB before its solve ended.
+DENSE_BYTES_PER_N2 = 80
 #: the share of the machine's available memory a solve may plan to take
 MEMORY_SHARE = 0.75
 
@@ -111,6 +114,9 @@ def _memory_check(n: int) -> None:
 
 
 _CHUNK = 262_144
+#: entries per block of rows of the parameter problem's Jacobian (:meth:`_Problem.gap_rows`,
+#: :func:`_softmax_chain`): the blocks' work arrays stay a few MB whatever n
+_GAP_ROWS_ENTRIES = 131_072
 #: Series centres closer than this to a prevertex get their coefficients and values in local
 #: coordinates (differences from the gaps, values from the nearest prevertex): the far-field
 #: tree and the anchor chains work with float64 prevertices, whose ~1e-16 absolute error is a
@@ -215,7 +221,8 @@ class _Problem:
         return jacobian and self.coarse_jacobian and self.rules_coarse is not None
 
     def integrals(self, cfg: Configuration, jacobian: bool):
-        """Side integrals S_k (all n), centre integral ∫_{z_0}^0 F, their gap-Jacobians (with
+        """Side integrals S_k (all n), centre integral ∫_{z_0}^0 F, the data of their
+        gap-Jacobians ``(plan, H, J)`` for :meth:`gap_rows` (None without the Jacobian; with
         the coarse rule when :meth:`coarse` says so), and the half-side integrals from each
         prevertex z_k to its arc's midpoint."""
         n = self.n
@@ -231,10 +238,32 @@ class _Problem:
         rules = self.rules_coarse if self.coarse(jacobian) else self.rules
         H, J = integrate(cfg, plan, rules, jacobian=jacobian)
         S = H[:n] - H[n : 2 * n]
-        if not jacobian:
-            return S, H[2 * n], None, None, H[:n]
-        G = gap_jacobian(cfg, plan, H, J)
-        return S, H[2 * n], G[:n] - G[n : 2 * n], G[2 * n], H[:n]
+        return S, H[2 * n], (plan, H, J) if jacobian else None, H[:n]
+
+    def gap_rows(self, cfg: Configuration, jac: tuple, S: np.ndarray, Ic: complex) -> np.ndarray:
+        """The parameter equations' Jacobian w.r.t. the gaps, (n − 1) × n: rows ``log|S_k| −
+        log|S_ref|`` for the equations' sides, then the real and imaginary parts of the
+        centre equation. Made from the integrals' θ-derivatives a block of sides at a time
+        (:func:`gap_jacobian` on rows k and n + k: the two half-side integrals of side k), so
+        that only the result and one block's work arrays are held besides ``J``."""
+        plan, H, J = jac
+        n = self.n
+        eqs = self.eqs
+
+        def dlog(k: np.ndarray) -> np.ndarray:
+            G = gap_jacobian(cfg, plan, H, J, np.r_[k, n + k])
+            return (G[: k.size] - G[k.size :]) / S[k, None]
+
+        ref = dlog(np.array([self.ref]))[0]
+        gd = np.empty((eqs.size + 2, n))
+        step = max(1, _GAP_ROWS_ENTRIES // n)
+        for i0 in range(0, eqs.size, step):
+            k = eqs[i0 : i0 + step]
+            gd[i0 : i0 + k.size] = (dlog(k) - ref[None, :]).real
+        dcen = gap_jacobian(cfg, plan, H, J, np.array([2 * n]))[0] / Ic - ref
+        gd[-2] = dcen.real
+        gd[-1] = dcen.imag
+        return gd
 
     def evaluate(self, x: np.ndarray, jacobian: bool = True):
         """Residual (and Jacobian w.r.t. x) of the n−1 parameter equations."""
@@ -257,19 +286,16 @@ class _Problem:
             raise QuadratureError("a gap underflowed to zero")
         cfg = Configuration(gaps, self.beta, self.local)
         with self.steps.next() if self.steps is not None else nullcontext():
-            S, Ic, JS, JI, half = self.integrals(cfg, jacobian)
+            S, Ic, jac, half = self.integrals(cfg, jacobian)
         res = self.residual(S, Ic)
         if not self.coarse(jacobian):
             self.last = (gaps.copy(), cfg, S, Ic, half)
         if not jacobian:
+            cfg.release()  # (the differences are made again where the configuration is used)
             return res, None, cfg, S, Ic
-        r = self.ref
-        eqs = self.eqs
-        GS, GI = JS, JI
-        dlogS = GS / S[:, None]
-        rows_side = (dlogS[eqs] - dlogS[r][None, :]).real
-        dcen = GI / Ic - dlogS[r]
-        gd = np.vstack([rows_side, dcen.real[None, :], dcen.imag[None, :]])
+        gd = self.gap_rows(cfg, jac, S, Ic)
+        del jac  # the θ-derivatives (2n + 1 complex rows) go before the chain rule
+        cfg.release()
         return res, _softmax_chain(gd, gaps), cfg, S, Ic
 
 
@@ -303,9 +329,16 @@ def _rotated_solution(
 
 
 def _softmax_chain(gd: np.ndarray, gaps: np.ndarray) -> np.ndarray:
-    """Derivatives w.r.t. the gaps → w.r.t. x (gaps = 2π softmax([x, 0]))."""
-    gx = gd * gaps[None, :] - np.outer(gd @ gaps, gaps) / TWO_PI
-    return gx[:, :-1]
+    """Derivatives w.r.t. the gaps → w.r.t. x (gaps = 2π softmax([x, 0])), in place in
+    ``gd`` (its rows a block at a time: no second n × n array)."""
+    s = gd @ gaps
+    gd *= gaps[None, :]
+    step = max(1, _GAP_ROWS_ENTRIES // max(gaps.size, 1))
+    for i0 in range(0, gd.shape[0], step):
+        t = np.multiply.outer(s[i0 : i0 + step], gaps)
+        t /= TWO_PI
+        gd[i0 : i0 + step] -= t
+    return gd[:, :-1]
 
 
 def _dropped_sides(e: np.ndarray, ref: int) -> tuple[int, int]:
@@ -417,7 +450,7 @@ def _factor(J: np.ndarray):
     d = np.diag(lu)
     if not np.all(np.isfinite(lu)) or np.any(d == 0):
         return None, J
-    return (lu, piv), J
+    return (lu, piv), None  # (J itself only for the least-squares fallback)
 
 
 def _solve(fac, rhs: np.ndarray) -> np.ndarray:
@@ -454,6 +487,7 @@ def _newton_loop(prob: _Problem, x: np.ndarray, tol: float, maxit: int):
     except QuadratureError:
         return x, math.inf, 0, False
     fac = _factor(J)
+    J = None  # (its factors are kept: one n × n array between evaluations)
     fresh = True  # fac holds the Jacobian at x
     nr = float(np.linalg.norm(r))
     it = 0
@@ -494,6 +528,7 @@ def _newton_loop(prob: _Problem, x: np.ndarray, tol: float, maxit: int):
                 break
             nr = float(np.linalg.norm(r))
             fac = _factor(J)
+            J = None
             fresh = True
             dx = _solve(fac, -r)
             big = np.max(np.abs(dx))
@@ -504,6 +539,7 @@ def _newton_loop(prob: _Problem, x: np.ndarray, tol: float, maxit: int):
         accepted = False
         r2c = prob.coarse(not cheap)
         while t >= tmin:
+            J2 = None  # (a rejected trial's Jacobian is not held through the next one)
             try:
                 r2, J2, *_ = prob.evaluate(x + t * dx, jacobian=not cheap)
                 n2 = float(np.linalg.norm(r2))
@@ -524,6 +560,7 @@ def _newton_loop(prob: _Problem, x: np.ndarray, tol: float, maxit: int):
                 break
             rc, nr = False, float(np.linalg.norm(r))
             fac = _factor(J)
+            J = None
             fresh = True
             continue
         x = x + t * dx
@@ -532,6 +569,7 @@ def _newton_loop(prob: _Problem, x: np.ndarray, tol: float, maxit: int):
             fresh = False
         else:
             fac = _factor(J2)
+            J2 = None
             fresh = True
     res = float(np.max(np.abs(r)))
     if rc and res < tol:

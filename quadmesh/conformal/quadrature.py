@@ -31,13 +31,12 @@ of long-double sums on the same nodes).
 
 from __future__ import annotations
 
-import functools
 import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided, sliding_window_view
+from numpy.lib.stride_tricks import sliding_window_view
 
 from ..progress import checkpoint
 
@@ -86,6 +85,41 @@ def gauss_jacobi(beta: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
     return 1.0 + x, w
 
 
+#: rows per block of :func:`_local_differences` (its work arrays stay a few MB whatever n)
+_DIFF_BLOCK_ENTRIES = 262_144
+
+
+def _local_differences(gaps: np.ndarray, z: np.ndarray, out: np.ndarray) -> None:
+    """``out[b, j] = z_j − z_b`` from the gaps (local coordinates, see :class:`Configuration`).
+
+    ``θ_j − θ_b`` is the sum of the gaps from b forward, or, past π, minus the sum from j
+    forward to b, so that every difference is accurate relative to its own size whatever the
+    rounding of the angles themselves; then ``z_j − z_b = z_b (e^{iΔ} − 1) = z_b (−2 sin²(Δ/2) +
+    2i sin(Δ/2) cos(Δ/2))``. Row b of ``R`` holds the forward sums from b over 0..n−1 gaps
+    (one ``cumsum`` per row), so the forward sum from b to j is ``R[b, (j − b) mod n]``; the
+    rows of ``out`` are made in blocks, so that besides ``R`` (8 bytes per entry) the work
+    arrays stay small (the whole-matrix version took ~70 bytes per entry at once).
+    """
+    n = gaps.size
+    R = np.zeros((n, n))
+    if n > 1:
+        np.cumsum(sliding_window_view(np.r_[gaps, gaps[:-2]], n - 1), axis=1, out=R[:, 1:])
+    cols = np.arange(n)
+    step = max(1, _DIFF_BLOCK_ENTRIES // max(n, 1))
+    for b0 in range(0, n, step):
+        b = np.arange(b0, min(n, b0 + step))
+        fwd = R[b[:, None], (cols[None, :] - b[:, None]) % n]
+        back = R[cols[None, :], (b[:, None] - cols[None, :]) % n]
+        delta = np.where(fwd <= np.pi, fwd, -back)
+        half = 0.5 * delta
+        sh = np.sin(half)
+        p_ = -2.0 * sh * sh
+        q_ = 2.0 * sh * np.cos(half)
+        x_, y_ = z.real[b, None], z.imag[b, None]
+        np.subtract(x_ * p_, y_ * q_, out=out[b0 : b0 + b.size].real)
+        np.add(x_ * q_, y_ * p_, out=out[b0 : b0 + b.size].imag)
+
+
 class Configuration:
     """Prevertices on the unit circle given by their gaps, in local coordinates.
 
@@ -110,43 +144,30 @@ class Configuration:
         self.theta = theta
         self.z = np.exp(1j * theta)
         self.zc = np.conj(self.z)
-        E = np.empty((n + 1, n), dtype=np.complex128)
-        if local:
-            # θ_j − θ_b as a sum of the gaps from b forward (or, past π, minus the sum from j
-            # forward to b): every difference is accurate relative to its own size, whatever
-            # the rounding of the angles themselves.
-            # row b of R: the sums of the gaps from b forward over 0..n−1 gaps, twice, so
-            # that θ_j − θ_b (forward) is R[b, n − b + j], a strided view of R
-            R = np.zeros((n, 2 * n))
-            np.cumsum(sliding_window_view(np.r_[gaps, gaps[:-2]], n - 1), axis=1, out=R[:, 1:n])
-            R[:, n:] = R[:, :n]
-            fwd = as_strided(R.ravel()[n:], shape=(n, n), strides=(8 * (2 * n - 1), 8))
-            delta = np.where(fwd <= np.pi, fwd, -fwd.T)
-            # z_j − z_b = z_b (e^{iΔ} − 1) = z_b (−2 sin²(Δ/2) + 2i sin(Δ/2) cos(Δ/2))
-            half = 0.5 * delta
-            sh = np.sin(half)
-            p_ = -2.0 * sh * sh
-            q_ = 2.0 * sh * np.cos(half)
-            x_, y_ = self.z.real[:, None], self.z.imag[:, None]
-            np.subtract(x_ * p_, y_ * q_, out=E[:n].real)
-            np.add(x_ * q_, y_ * p_, out=E[:n].imag)
-        else:
-            E[:n] = self.z[None, :] - self.z[:, None]
-        E[n] = self.z
-        self.E = E
+        self._E: np.ndarray | None = None
         half = np.minimum(gaps, np.roll(gaps, 1))
         self.nn = 2.0 * np.sin(0.5 * np.minimum(half, np.pi))
 
-    @functools.cached_property
-    def Er(self) -> np.ndarray:
-        """Real parts of ``E``, contiguous (the direct sums' real arithmetic); made on first
-        use — the far-field route (:func:`_integrate_far`) never needs them."""
-        return np.ascontiguousarray(self.E.real)
+    @property
+    def E(self) -> np.ndarray:
+        """``(n+1, n)``: row ``b < n`` holds ``z_j − z_b`` computed from the gaps, row ``n``
+        holds ``z_j`` (the origin as a base); made on first use (16 bytes per entry) and again
+        after :meth:`release`."""
+        if self._E is None:
+            n = self.n
+            E = np.empty((n + 1, n), dtype=np.complex128)
+            if self.local:
+                _local_differences(self.gaps, self.z, E[:n])
+            else:
+                E[:n] = self.z[None, :] - self.z[:, None]
+            E[n] = self.z
+            self._E = E
+        return self._E
 
-    @functools.cached_property
-    def Ei(self) -> np.ndarray:
-        """Imaginary parts of ``E``, contiguous (see :attr:`Er`)."""
-        return np.ascontiguousarray(self.E.imag)
+    def release(self) -> None:
+        """Drop the differences ``E`` (made again when next needed): a configuration kept
+        for later (the last one a solve evaluated) holds no n × n array meanwhile."""
+        self._E = None
 
     def half_offsets(self) -> tuple[np.ndarray, np.ndarray]:
         """Offsets of each arc midpoint from its two end prevertices (for the side integrals)."""
@@ -214,9 +235,11 @@ def plan_integrals(
             dist = np.empty(active.size)
             if np.any(f):
                 dist[f] = cfg.nn[b[f]]
-            nf = ~f
-            if np.any(nf):
-                dist[nf] = np.min(np.abs(E[b[nf]] - p[nf, None]), axis=1)
+            nf = np.flatnonzero(~f)
+            step = max(1, _FAR_BLOCK // max(cfg.n, 1))
+            for i0 in range(0, nf.size, step):  # (rows of E a block at a time)
+                i = nf[i0 : i0 + step]
+                dist[i] = np.min(np.abs(E[b[i]] - p[i, None]), axis=1)
             h = ratio * dist
             last = h >= L
             newp = np.where(last, end[active], p + rem * (h / L))
@@ -386,7 +409,9 @@ def _far_coefficients(
     order: int,
     moments: np.ndarray | None = None,
     jac_order: int = 0,
-) -> tuple[np.ndarray, np.ndarray | None]:
+    J: np.ndarray | None = None,
+    rows: np.ndarray | None = None,
+) -> np.ndarray:
     """Expansion of the far part of ``Σ_j β_j Log(1 − s/z_j)`` about each centre, and the far
     Jacobian columns.
 
@@ -394,9 +419,10 @@ def _far_coefficients(
     prevertices j (neither the base nor near) give ``a_0 = Σ β_j Log((z_j − c) z̄_j)`` and
     ``a_m = −(1/m) Σ β_j q_j^m`` with ``q_j = R/(z_j − c)`` (differences from the
     local-coordinate rows ``E``, accurate under crowding): the far part at the node ``c + Rτ``
-    is ``Σ_m a_m τ^m``. With ``moments`` (G, jac_order+1), ``M_p = Σ_nodes v τ^p``, also
-    returns ``Σ_nodes v/(z_j − s) = (1/R) Σ_p M_p q_j^{p+1}`` for the far columns (zero
-    elsewhere), shape (G, n).
+    is ``Σ_m a_m τ^m``; returns the coefficients ``a`` (G, order + 1). With ``moments``
+    (G, jac_order+1), ``M_p = Σ_nodes v τ^p``, also adds ``Σ_nodes v/(z_j − s) = (1/R) Σ_p M_p
+    q_j^{p+1}`` for the far columns (zero elsewhere) to row ``rows[g]`` of ``J`` (rows
+    distinct), block by block: no (G, n) array is made.
     """
     from .series import log_coefficients  # (series imports this module)
 
@@ -405,7 +431,6 @@ def _far_coefficients(
     beta = cfg.beta
     zc = cfg.zc
     a = np.zeros((G, order + 1), dtype=np.complex128)
-    J = np.zeros((G, n), dtype=np.complex128) if moments is not None else None
     step = max(1, _FAR_BLOCK // max(n, 1))
     with np.errstate(divide="ignore", invalid="ignore"):
         for g0 in range(0, G, step):
@@ -446,8 +471,8 @@ def _far_coefficients(
                     acc += moments[g, p, None]
                 acc *= q
                 acc /= R[g, None]
-                J[g] = acc
-    return a, J
+                J[rows[g]] += acc
+    return a
 
 
 def _near_logs(
@@ -541,7 +566,7 @@ def _integrate_far(
     ob, od, oW = base[sel], d[sel], W[sel]
     tau = (od - c[g_of]) / R[g_of]
     order_h = _far_order(ratio, FAR_TOL)
-    a, _ = _far_coefficients(cfg, gb, c, R, near_idx, order_h)
+    a = _far_coefficients(cfg, gb, c, R, near_idx, order_h)
     from .series import horner  # (series imports this module)
 
     logf = horner(a, g_of, tau)
@@ -562,8 +587,7 @@ def _integrate_far(
         for p in range(order_j + 1):
             mom[:, p] = np.add.reduceat(v * pw, gstart)
             pw = pw * tau
-        _, Jf = _far_coefficients(cfg, gb, c, R, near_idx, 0, mom, order_j)
-        J[owner[starts[okg]]] += Jf
+        _far_coefficients(cfg, gb, c, R, near_idx, 0, mom, order_j, J, owner[starts[okg]])
         with np.errstate(divide="ignore", invalid="ignore"):
             contrib = np.where(A_near != 0, v[:, None] / A_near, 0.0)
         # per integral first (its near prevertices are distinct), then one scatter
@@ -602,7 +626,6 @@ def _integrate_direct(
     beta = cfg.beta
     half_beta = 0.5 * beta
     zcr, zci = cfg.z.real, -cfg.z.imag
-    Er, Ei = cfg.Er, cfg.Ei
     z_abs = np.append(cfg.z, 0.0)
     rows = int(np.max(np.diff(bounds)))
     # work arrays of the largest chunk, reused by every chunk (no temporaries per chunk)
@@ -615,10 +638,9 @@ def _integrate_direct(
             dq = d[lo:hi]
             # A = z_j − s and B = A/z_j = 1 − s/z_j, in real arithmetic (numpy's complex
             # log is ~10× slower than log∘hypot plus arctan2)
-            ar = np.take(Er, bq, axis=0, out=Ar[:k], mode="clip")
-            ar -= dq.real[:, None]
-            ai = np.take(Ei, bq, axis=0, out=Ai[:k], mode="clip")
-            ai -= dq.imag[:, None]
+            eb = np.take(cfg.E, bq, axis=0, mode="clip")
+            ar = np.subtract(eb.real, dq.real[:, None], out=Ar[:k])
+            ai = np.subtract(eb.imag, dq.imag[:, None], out=Ai[:k])
             # |A|² directly: hypot is several times slower, and |A| ≥ the panel scale
             # (≫ 1e-150) keeps the square far from underflow
             m2 = np.multiply(ar, ar, out=T1[:k])
@@ -672,9 +694,15 @@ def endpoint_values(cfg: Configuration, base: np.ndarray, end: np.ndarray) -> np
 
 
 def gap_jacobian(
-    cfg: Configuration, plan: IntegralPlan, H: np.ndarray, J: np.ndarray
+    cfg: Configuration,
+    plan: IntegralPlan,
+    H: np.ndarray,
+    J: np.ndarray,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Derivatives ``∂H_i/∂d_l`` w.r.t. the gaps (θ_j = Σ_{l<j} d_l, ends held fixed).
+    """Derivatives ``∂H_i/∂d_l`` w.r.t. the gaps (θ_j = Σ_{l<j} d_l, ends held fixed), for the
+    integrals ``rows`` (default: all; each row depends on its own integral only, so callers
+    form the n × n Jacobian a block of rows at a time).
 
     Changing ``d_l`` rotates the prevertices ``j > l`` rigidly. If the base of ``H`` stays
     (``b ≤ l``), ``∂H/∂d_l = Σ_{j>l} ∂H/∂θ_j``. If the base moves (``b > l``), the rotation
@@ -685,8 +713,11 @@ def gap_jacobian(
     machine epsilon (§1.9).
     """
     n = cfg.n
-    base = plan.ibase
-    end = plan.end
+    rows = np.arange(plan.nint) if rows is None else np.asarray(rows, dtype=np.intp)
+    base = plan.ibase[rows]
+    end = plan.end[rows]
+    H = H[rows]
+    J = J[rows]
     mabs = np.where(base < n, np.append(cfg.z, 0.0)[base] + end, end)
     Fm = endpoint_values(cfg, base, end)
     rev = np.zeros_like(J)
