@@ -818,9 +818,9 @@ def test_a_chain_restarts_the_ladder_past_where_it_gets_stuck():
     from types import SimpleNamespace
 
     from quadmesh.families import river
-    from quadmesh.pipeline import _mesh_chain
     from quadmesh.progress import running
     from quadmesh.result import MeshOptions
+    from quadmesh.routes import _mesh_chain
 
     m = river(np.random.default_rng([8, 99]), n_vertices=200, ratio=20)
     poly = validate_polygon(m.vertices)
@@ -852,8 +852,8 @@ def test_a_tip_no_ladder_leaves_is_cut_off_as_a_knot():
 
     from quadmesh.errors import ThinPartError
     from quadmesh.families import images
-    from quadmesh.pipeline import KNOT_MAX_VERTICES, _mesh_knotted_arm
     from quadmesh.result import MeshOptions
+    from quadmesh.routes import KNOT_MAX_VERTICES, _mesh_knotted_arm
     from quadmesh.thin.corridor import tip_cuts
 
     horse = next(m for m in images(0) if m.name == "horse_0").vertices
@@ -890,8 +890,8 @@ def test_a_chain_whose_tips_no_ladder_leaves_starts_with_a_knot():
     from types import SimpleNamespace
 
     from quadmesh.families import images
-    from quadmesh.pipeline import CHAIN_KNOT_SHARE, _mesh_chain
     from quadmesh.result import MeshOptions
+    from quadmesh.routes import CHAIN_KNOT_SHARE, _mesh_chain
     from quadmesh.thin.corridor import arm_and_body, corridor_tips
 
     horse = next(m for m in images(0) if m.name == "horse_0").vertices

@@ -2405,7 +2405,7 @@ def restart_cuts(
     direction over ±1 width, the rung's length). Kept as :func:`bridge_cuts` keeps its cuts,
     and when neither end lies on the rung itself. A ladder that gets stuck on a ragged stretch
     (a zigzag bank, a notch) restarts from such a cut: the knot between the two cuts is small
-    enough for the paper's construction (:func:`quadmesh.pipeline._mesh_chain`)."""
+    enough for the paper's construction (:func:`quadmesh.routes._mesh_chain`)."""
     z = np.asarray(z, dtype=np.complex128)
     n = z.size
     tri, g, _apex, _ear = _dual_tree(z)
@@ -2546,7 +2546,7 @@ def bridge_layout(
     corridor), or None when no ladder of at least ``min_rungs`` rungs leaves the cut (two: a
     single cell, as across a straight stem, which only a cell cut along its length can give
     room for its transitions). ``own_width``: as for :func:`ladder_layout` (an arm's ladder
-    from a knot, :func:`quadmesh.pipeline._mesh_knotted_arm`)."""
+    from a knot, :func:`quadmesh.routes._mesh_knotted_arm`)."""
     q = capped(np.asarray(part, dtype=np.complex128))
     m = q.size
     if not shapely.Polygon(np.column_stack([q.real, q.imag])).is_valid:
