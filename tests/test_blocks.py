@@ -1036,3 +1036,20 @@ def test_cli_reports_undersized_edges_of_a_block_mesh(tmp_path: Path, capsys) ->
         pct = float(line.split("(")[1].split(" %")[0])
         assert share[0] <= pct <= share[1], line
         assert "shorter than 0.25 × the smaller of the size" in line
+
+
+def test_a_layout_is_searched_for_up_to_160_cut_slots() -> None:
+    """A 10 × 1 rectangle whose top is a shallow wavy line of 125 vertices (125 cut slots,
+    more than the former limit of 120; Computer Modern "S" has 121 and "3" 144): the straight
+    cuts close (126 blocks, one cut down from every top vertex), and ``mesh_polygon`` returns
+    the block mesh with every angle in [60°, 120°] recomputed from the coordinates."""
+    from quadmesh.blocks import MAX_SLOTS
+
+    m = 125
+    x = np.linspace(10, 0, m + 2)[1:-1]
+    top = x + 1j * (1 + 0.05 * np.sin(np.pi * x / 10))
+    z = np.r_[0, 10, 10 + 1j, top, 1j]
+    assert m <= MAX_SLOTS
+    assert len(block_layout(z, 0.5).cells) == m + 1
+    poly = validate_polygon(np.column_stack([z.real, z.imag]))
+    _assert_cut_layout_mesh(np.column_stack([z.real, z.imag]), poly)
