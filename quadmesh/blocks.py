@@ -405,19 +405,25 @@ def _first_hits(
     return t[rows, j], np.where(hit, j, -1), u[rows, j]
 
 
-def _windows(theta: float, exact: bool = False) -> list[tuple[float, float]]:
+def _windows(theta: float, exact: bool = False, twin: bool = False) -> list[tuple[float, float]]:
     """Direction windows (degrees from the outgoing edge) of the cut slots of a corner.  An
     ``exact`` corner (240° by construction: a tip kite's inner point with a 120° kite corner)
-    has one cut along its bisector, both parts exactly 120°."""
+    has one cut along its bisector, both parts exactly 120°.  A ``twin`` corner of at most 240°
+    (one with no single cut of its own: :func:`_twin_corners`) gets two cuts, three parts in
+    [60°, 120°], as corners above 240° do: at 225° a single cut must leave 105°–120° on both
+    sides, a window of 15°, while two cuts may leave 60°–105° at either side."""
     if exact:
         return [(0.5 * theta, 0.5 * theta)]
     m = LAYOUT_MARGIN
     lo, hi = ANGLE_MIN + m, ANGLE_MAX - m
     if theta <= ANGLE_MAX + ANGLE_TOL:
         return []
-    if theta <= 2 * ANGLE_MAX:
-        return [(max(lo, theta - hi), min(hi, theta - lo))]
-    return [(max(lo, theta - 2 * hi), min(hi, theta - 2 * lo)), (theta - hi, theta - lo)]
+    if theta > 2 * ANGLE_MAX:
+        return [(max(lo, theta - 2 * hi), min(hi, theta - 2 * lo)), (theta - hi, theta - lo)]
+    if twin and theta >= 3 * lo:
+        # the second cut at least 60.5° past the first, which is at least 60.5° from the edge
+        return [(lo, theta - 2 * lo), (2 * lo, theta - lo)]
+    return [(max(lo, theta - hi), min(hi, theta - lo))]
 
 
 def _candidates(
@@ -427,6 +433,7 @@ def _candidates(
     bare: list[_Ray] | None = None,
     rigid: frozenset[int] = frozenset(),
     exact: frozenset[int] = frozenset(),
+    twin: frozenset[int] = frozenset(),
 ) -> list[_Ray]:
     """Candidate cuts of every corner above 120°: ``RAY_SAMPLES`` directions spread over each
     cut's window, each running to the first boundary point it meets, kept when it meets the
@@ -434,12 +441,12 @@ def _candidates(
     in view whose own windows admit them.  Rays whose boundary end is unusable go to ``bare``
     (when given): they can still serve shortened, ending on another cut (:func:`_t_variants`).
     A ray may not end inside a ``rigid`` edge (a side of a tip kite, which is never split);
-    ``exact`` corners as in :func:`_windows`."""
+    ``exact`` and ``twin`` corners as in :func:`_windows`."""
     n = len(z)
     gap = POINT_GAP * diam
     m = LAYOUT_MARGIN
     e_out = np.roll(z, -1) - z
-    wins = [_windows(float(t), i in exact) for i, t in enumerate(theta)]
+    wins = [_windows(float(t), i in exact, i in twin) for i, t in enumerate(theta)]
     rays: list[_Ray] = []
 
     def slot_of(i: int, phi: float) -> int | None:
@@ -908,6 +915,7 @@ def _junctions(
     exact: frozenset[int] = frozenset(),
     deadline: float = math.inf,
     needy: frozenset[tuple[int, int]] | None = None,
+    twin: frozenset[int] = frozenset(),
 ) -> list[_Ray]:
     """Junction candidates: interior points where three or more cuts meet, each a single
     candidate covering the cut slots of the corners its arms reach.  With ``needy`` (cut slots
@@ -934,7 +942,7 @@ def _junctions(
     gap = POINT_GAP * diam
     m = LAYOUT_MARGIN
     e_out = np.roll(z, -1) - z
-    wins = [_windows(float(t), i in exact) for i, t in enumerate(theta)]
+    wins = [_windows(float(t), i in exact, i in twin) for i, t in enumerate(theta)]
     corners = np.array([i for i in range(n) if wins[i]], dtype=np.int64)
     if len(long) < 1 or len(corners) < 2:
         return []
@@ -1868,7 +1876,9 @@ def block_layout(
     kept whole; the layouts that close without junctions are found as before.  Last, the same
     four searches run again with faces whose split about a centre SLSQP does not find from
     their centroids given a sampled search (:func:`_sampled_split`: pentagons between the
-    cuts of a glyph's serif brackets); the layouts found before stay as they were.
+    cuts of a glyph's serif brackets); the layouts found before stay as they were.  Last,
+    corners of 181.5°–240° with no single straight cut of their own are cut twice
+    (:func:`_twin_corners`).
 
     Args:
         polygon: (n,) complex vertices, counter-clockwise, no repeated or collinear points.
@@ -1936,6 +1946,13 @@ def block_layout(
             )
         except BlockLayoutError:
             pass
+    # last: corners of 181.5°–240° that no single straight cut serves cut twice (pixel stairs
+    # of traced contours: at 225° a single cut has a window of 15°, two have 44° each)
+    if _may_twin(theta):
+        try:
+            return _cut_layout(z, partial=partial, twins=True)
+        except BlockLayoutError:
+            pass
     raise error
 
 
@@ -1965,6 +1982,30 @@ def _long(rays: list[_Ray], bare: list[_Ray]) -> list[_Ray]:
     return [r for r in rays if r.join < 0 and r.stop < 0] + bare
 
 
+def _may_twin(theta: NDArray[np.float64]) -> bool:
+    """Whether some corner lies in 181.5°–240°, where two cuts fit (:func:`_twin_corners`)."""
+    lo = ANGLE_MIN + LAYOUT_MARGIN
+    return bool(np.any((theta >= 3 * lo) & (theta <= 2 * ANGLE_MAX + ANGLE_TOL)))
+
+
+def _twin_corners(
+    theta: NDArray[np.float64], rays: list[_Ray], exact: frozenset[int]
+) -> frozenset[int]:
+    """The corners of 181.5°–240° (two cuts fit: three parts of at least 60.5°) that no single
+    straight cut to the boundary among ``rays`` (the full candidates with one window each)
+    serves: they take two cuts (:func:`_windows`).  Pixel-traced outlines have stair corners
+    of 225°–239° whose single cut must meet the far side within a window of 15° down to 2°;
+    scikit-image text_1, text_3 and page_1 close so (7,270, 3,834 and 4,002 quads against
+    80,192–130,613 by the paper's construction)."""
+    lo = ANGLE_MIN + LAYOUT_MARGIN
+    served = {i for r in rays for i, _ in r.slots}
+    return frozenset(
+        i
+        for i, t in enumerate(theta.tolist())
+        if 3 * lo <= t <= 2 * ANGLE_MAX + ANGLE_TOL and i not in exact and i not in served
+    )
+
+
 def _cut_layout(
     z: NDArray[np.complex128],
     kites: _KiteCut = _KiteCut(),
@@ -1976,6 +2017,7 @@ def _cut_layout(
     sample: bool = False,
     partial: list[PartialLayout] | None = None,
     relax: bool = False,
+    twins: bool = False,
 ) -> BlockLayout:
     """The straight-cut layout of :func:`block_layout` for ``z`` (tips kept whole).  With
     ``kites`` the tip points are appended to the layout's points and the kites to its cells,
@@ -1998,22 +2040,41 @@ def _cut_layout(
     as failed.  ``partial``: a list into which the round that left the fewest faces unsplit
     is kept (:class:`PartialLayout`, one item at most).  ``relax``: a corner may keep a cut
     slot without a cut (at :data:`UNSERVED_COST`; its face then cannot split and is kept as
-    a partial layout's face to fall back), no T-junction candidates."""
+    a partial layout's face to fall back), no T-junction candidates.  ``twins``: corners of
+    181.5°–240° that no single straight cut to the boundary serves are cut twice
+    (:func:`_twin_corners`; the search is not run when there are none)."""
     deadline = time.perf_counter() + seconds
     n = len(z)
     theta = _angles_deg(z)
     diam = _scale(z)
     tips = np.nonzero(theta < ANGLE_MIN - ANGLE_TOL)[0].astype(np.int64)
     exact = kites.exact
-    slots = [(i, k) for i in range(n) for k in range(len(_windows(float(theta[i]), i in exact)))]
-    if len(slots) > MAX_SLOTS:
-        raise BlockLayoutError(
-            f"{len(slots)} cuts would be needed ({len({i for i, _ in slots})} corners above "
-            f"120°); block layouts are searched for at most {MAX_SLOTS}. Fewer vertices on the "
-            "round parts of the outline would help"
-        )
+
+    def slots_of(twin: frozenset[int]) -> list[tuple[int, int]]:
+        slots = [
+            (i, k)
+            for i in range(n)
+            for k in range(len(_windows(float(theta[i]), i in exact, i in twin)))
+        ]
+        if len(slots) > MAX_SLOTS:
+            raise BlockLayoutError(
+                f"{len(slots)} cuts would be needed ({len({i for i, _ in slots})} corners above "
+                f"120°); block layouts are searched for at most {MAX_SLOTS}. Fewer vertices on "
+                "the round parts of the outline would help"
+            )
+        return slots
+
+    slots = slots_of(frozenset())
     bare: list[_Ray] = []
     rays = _candidates(z, theta, diam, bare, kites.rigid, exact) if slots else []
+    # corners that no single straight cut serves take two where two fit
+    twin = _twin_corners(theta, rays, exact) if twins else frozenset()
+    if twins and not twin:
+        raise BlockLayoutError("every corner of at most 240° has a single cut of its own")
+    if twin:
+        slots = slots_of(twin)
+        bare = []
+        rays = _candidates(z, theta, diam, bare, kites.rigid, exact, twin)
     checkpoint()
     covered = {s for r in rays for s in r.slots}
     missing = [s for s in slots if s not in covered]
@@ -2045,7 +2106,15 @@ def _cut_layout(
         first = 1
         if junctions:  # ... or at a junction with other cuts
             stars = _junctions(
-                z, theta, diam, _long(rays, bare), kites.rigid, exact, deadline, frozenset(missing)
+                z,
+                theta,
+                diam,
+                _long(rays, bare),
+                kites.rigid,
+                exact,
+                deadline,
+                frozenset(missing),
+                twin,
             )
             covered |= {s for r in stars for s in r.slots}
             if not stars:  # the search would be the one that already failed
@@ -2700,15 +2769,21 @@ def _lay_out(
     return _LaidOut(X, cells, np.concatenate(cuts), tuple(local), tuple(rest))
 
 
-def _relaxed_partial(z: NDArray[np.complex128], partial: list[PartialLayout]) -> None:
+def _relaxed_partial(
+    z: NDArray[np.complex128], partial: list[PartialLayout], twins: bool = False
+) -> None:
     """Rounds of a relaxed straight-cut search, in which corners may stay without a cut (their
     faces then do not split), added to ``partial`` when it is empty.  It searches plain cuts
     only, so it runs even where the first search gave up on too many conflicting pairs of
     candidates with T-junction variants among them (STIX "b": 185,457 pairs); where the plain
-    cuts conflict too much as well, it gives up by itself."""
-    if not partial:
+    cuts conflict too much as well, it gives up by itself.  ``twins``: the corners of
+    181.5°–240° that no single straight cut serves are cut twice (:func:`_twin_corners`); no
+    rounds where there are none."""
+    if not partial and (not twins or _may_twin(_angles_deg(z))):
         try:
-            _cut_layout(z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True)
+            _cut_layout(
+                z, seconds=RELAXED_SECONDS, separate=True, partial=partial, relax=True, twins=twins
+            )
         except BlockLayoutError:
             pass
 
@@ -3274,8 +3349,9 @@ def _fallback_faces(
     mesh_face: FaceMesher | None,
 ) -> tuple[NDArray[np.complex128], NDArray[np.int64], BlockLayout, LayoutRefinement] | None:
     """The mesh of a partial layout whose unsplit faces are all laid out on their own: the
-    searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`);
-    failing that, with ``mesh_face``, the round with the fewest faces left without a layout of
+    searches' kept rounds in turn, then those of a relaxed search (:func:`_relaxed_partial`),
+    then those of a relaxed search with twin cuts (:func:`_twin_corners`); failing that, with
+    ``mesh_face``, the round with the fewest faces left without a layout of
     their own, those faces meshed by ``mesh_face`` (:func:`mesh_partial_layout`), or, when
     that mesh fails the strict check (:meth:`quadmesh.mesh.QuadMesh.verify`), the next such
     round (:data:`FALLBACK_ROUNDS` in all)."""
@@ -3304,6 +3380,14 @@ def _fallback_faces(
         relaxed: list[PartialLayout] = []
         _relaxed_partial(z, relaxed)
         got = pure(relaxed)
+    if got is None:
+        # last: rounds with the corners that no single cut serves cut twice (pixel stairs),
+        # with time of their own (scikit-image text_3: 16 faces laid out on their own)
+        twin: list[PartialLayout] = []
+        _relaxed_partial(z, twin, twins=True)
+        if twin:
+            deadline = time.perf_counter() + PARTIAL_SECONDS
+            got = pure(twin)
     if got is not None or mesh_face is None or not tried:
         return got
     for part, laid in sorted(tried, key=lambda t: (len(t[1].rest), t[0].score))[:FALLBACK_ROUNDS]:
@@ -3324,22 +3408,27 @@ def _long_cut_layout(
     :func:`_split_cells`): when the first search ran out of time (``why``: its message), or
     when a corner had no straight cut of its own and the candidates were too many for
     T-junction candidates (more than :data:`MAX_RAYS_FOR_TEES`; now up to
-    :data:`LONG_MAX_RAYS_FOR_TEES`).  None if it fails too, or if neither applies (the search
+    :data:`LONG_MAX_RAYS_FOR_TEES`); then, where a corner had no cut, once more with the
+    corners of 181.5°–240° that no single straight cut serves cut twice (:func:`_twin_corners`:
+    scikit-image text_3 closes so).  None if it fails too, or if neither applies (the search
     would give the same answer)."""
     timed_out = "no layout within" in why
     if not timed_out and not why.startswith("no straight cut from the corner"):
         return None
-    try:
-        return _cut_layout(
-            z,
-            seconds=LONG_SEARCH_SECONDS,
-            separate=True,
-            tee_rays=LONG_MAX_RAYS_FOR_TEES,
-            more_tees=not timed_out,
-            partial=partial,
-        )
-    except BlockLayoutError:
-        return None
+    for twins in (False, True) if not timed_out and _may_twin(_angles_deg(z)) else (False,):
+        try:
+            return _cut_layout(
+                z,
+                seconds=LONG_SEARCH_SECONDS,
+                separate=True,
+                tee_rays=LONG_MAX_RAYS_FOR_TEES,
+                more_tees=not timed_out and not twins,
+                partial=partial,
+                twins=twins,
+            )
+        except BlockLayoutError:
+            pass
+    return None
 
 
 def _ladder_mesh(

@@ -1053,3 +1053,59 @@ def test_a_layout_is_searched_for_up_to_160_cut_slots() -> None:
     assert len(block_layout(z, 0.5).cells) == m + 1
     poly = validate_polygon(np.column_stack([z.real, z.imag]))
     _assert_cut_layout_mesh(np.column_stack([z.real, z.imag]), poly)
+
+
+def test_twin_cut_windows_split_a_corner_of_at_most_240_degrees_into_three_parts_in_range() -> None:
+    """A corner of 181.5°–240° cut twice: every pair of directions from its two windows that
+    are 60.5°–119.5° apart leaves three parts in [60.5°, 119.5°]; below 181.5° two cuts do not
+    fit and the corner keeps its one window; above 240° the windows are those of before."""
+    from quadmesh.blocks import _windows
+
+    rng = np.random.default_rng(4)
+    for theta in rng.uniform(181.6, 240.0, 200):
+        (a0, a1), (b0, b1) = _windows(float(theta), twin=True)
+        a = rng.uniform(a0, a1, 400)
+        b = rng.uniform(b0, b1, 400)
+        ok = (b - a >= 60.5) & (b - a <= 119.5)
+        parts = np.stack([a, b - a, theta - b])[:, ok]
+        assert ok.any()
+        assert parts.min() >= 60.5 - 1e-9 and parts.max() <= 119.5 + 1e-9
+    assert len(_windows(181.0, twin=True)) == 1
+    assert _windows(250.0, twin=True) == _windows(250.0)
+
+
+def test_a_corner_with_no_single_cut_is_cut_twice() -> None:
+    """A chamfered staircase whose 239.3° corner has no single straight cut (both parts would
+    be 119.65°, above the 119.5° a cut may leave): no layout without twin cuts; with them the
+    corner's two cuts leave three parts in range, and ``mesh_polygon`` returns the block mesh
+    with every angle in [60°, 120°] recomputed from the coordinates."""
+    import quadmesh.blocks as qb
+
+    z = np.array(
+        [
+            -0.007 - 0.007j,
+            3.0014 + 0.0014j,
+            2.9971 + 0.9971j,
+            2.4544 + 1.0144j,
+            2.0 + 1.2874j,
+            2.0032 + 2.0032j,
+            1.0095 + 2.0095j,
+            0.997 + 2.997j,
+            0.0144 + 3.0144j,
+        ]
+    )
+    theta = qb._angles_deg(z)
+    rays = qb._candidates(z, theta, qb._scale(z), [], frozenset(), frozenset())
+    (corner,) = qb._twin_corners(theta, rays, frozenset())
+    assert 239.0 < theta[corner] < 240.0
+    may = qb._may_twin
+    try:
+        qb._may_twin = lambda th: False
+        with pytest.raises(BlockLayoutError):
+            block_layout(z)
+    finally:
+        qb._may_twin = may
+    lay = block_layout(z)
+    assert sum(corner in c for c in lay.cells.tolist()) == 3  # three parts: two cuts
+    xy = np.column_stack([z.real, z.imag])
+    _assert_cut_layout_mesh(xy, validate_polygon(xy))
