@@ -162,6 +162,19 @@ def _add_mesh(asm: Assembler, r: MeshResult) -> np.ndarray:
     return ids
 
 
+def _with_ladder(asm: Assembler, arm, gl: np.ndarray, part: MeshResult):
+    """Add the ladder ``arm`` to ``asm``: its points with an id in ``gl`` (those on the rungs
+    it shares with the parts' meshes) take it, the others become new vertices, its quads
+    corridor quads (source 3). Returns the route's result for ``part`` (the part it starts
+    from): (assembler, its thick-piece results, its thin parts and the ladder, its
+    decomposition)."""
+    own = gl < 0
+    gl[own] = asm.add_vertices(arm.vertices[own])
+    asm.add_quads(gl[arm.quads], source=3)
+    thin = [*part.thin, ThinPartResult("corridor", len(part.thin), arm, gl)]
+    return asm, list(part.pieces), thin, part.decomposition
+
+
 def _cut_ids(w: np.ndarray, za: complex, zb: complex) -> np.ndarray | None:
     """Indices of the points of ``w`` on the segment from ``za`` to ``zb`` (both ends, which
     must be points of ``w`` exactly), in order from ``za``; None when an end is missing."""
@@ -312,11 +325,7 @@ def _bridge_join(lay, q: np.ndarray, near_r: MeshResult, start: np.ndarray, body
     gl[arm.start] = gl_parts[0][start]
     if end is not None:
         gl[arm.cut] = gl_parts[1][end]
-    own = gl < 0
-    gl[own] = asm.add_vertices(arm.vertices[own])
-    asm.add_quads(gl[arm.quads], source=3)
-    thin = [*near_r.thin, ThinPartResult("corridor", len(near_r.thin), arm, gl)]
-    return asm, list(near_r.pieces), thin, near_r.decomposition
+    return _with_ladder(asm, arm, gl, near_r)
 
 
 #: A chain (:func:`_mesh_chain`) has at most this many knots, and tries at most this many
@@ -542,11 +551,7 @@ def _mesh_arm_and_body(
     asm = Assembler()
     gl = np.full(arm.vertices.size, -1, dtype=np.int64)
     gl[arm.cut] = _add_mesh(asm, inner)[cut]
-    own = gl < 0
-    gl[own] = asm.add_vertices(arm.vertices[own])
-    asm.add_quads(gl[arm.quads], source=3)
-    thin = [*inner.thin, ThinPartResult("corridor", len(inner.thin), arm, gl)]
-    return asm, list(inner.pieces), thin, inner.decomposition
+    return _with_ladder(asm, arm, gl, inner)
 
 
 #: A knotted arm (:func:`_mesh_knotted_arm`) is tried from at most this many tips nearest the
