@@ -93,11 +93,12 @@ MAX_ROUNDS = 40
 #: as in range
 ANGLE_TOL = 1e-7
 #: most cut slots (corners above 120°, two for those above 240°) a layout is searched for; the
-#: pairwise search grows with the square of the candidates. 160 (was 120): Computer Modern "S"
+#: pairwise search grows with the square of the candidates. 200 (was 120): Computer Modern "S"
 #: (121 slots) and "3" (144) close, in 13 and 25–34 s (1,029 and 6,147–8,703 quads against
-#: 59,741 and 124,891 by the paper's construction); traced contours of 131–136 slots (text_3,
-#: page_1) still fall back, ~30 s later
-MAX_SLOTS = 160
+#: 59,741 and 124,891 by the paper's construction), scikit-image page_0 (169, with twin cuts)
+#: in 34 s (9,776 quads against 164,833), the pen strokes S_1 and S_3 (173, 182) by cuts with
+#: 200 and 202 quads instead of ladders with 720 and 895 (0.5 s more)
+MAX_SLOTS = 200
 #: T-junction and junction candidates are tried only while the full rays number at most this
 MAX_RAYS_FOR_TEES = 1000
 #: pairs of crossing cuts (the shortest arms first) tried as four-arm junctions

@@ -1038,7 +1038,7 @@ def test_cli_reports_undersized_edges_of_a_block_mesh(tmp_path: Path, capsys) ->
         assert "shorter than 0.25 × the smaller of the size" in line
 
 
-def test_a_layout_is_searched_for_up_to_160_cut_slots() -> None:
+def test_a_layout_is_searched_for_more_than_120_cut_slots() -> None:
     """A 10 × 1 rectangle whose top is a shallow wavy line of 125 vertices (125 cut slots,
     more than the former limit of 120; Computer Modern "S" has 121 and "3" 144): the straight
     cuts close (126 blocks, one cut down from every top vertex), and ``mesh_polygon`` returns
