@@ -14,7 +14,7 @@ from quadmesh.examples import load_example
 from quadmesh.polygon import validate_polygon
 from tests.helpers import L_SHAPE, require_pipeline
 from tests.test_app import assert_angles_ok, click, keys, load_example_by_menu, press, tick
-from tests.test_blocks import FOUR_STAR
+from tests.test_blocks import NO_LAYOUT
 
 
 def _segments(part) -> np.ndarray:
@@ -234,12 +234,12 @@ def test_blocks_chosen_with_the_keyboard_mesh_layer_and_pick(main_window, qtbot)
 
 @pytest.mark.gui
 def test_no_layout_falls_back_and_says_why(main_window, qtbot):
-    """Blocks chosen with the mouse on a typed four-pointed star (no straight cuts, ladder or
-    collar close around it): the run falls back to the paper's construction, the Mesh panel
-    and the status bar say why, and the paper's stages are drawn as usual."""
+    """Blocks chosen with the mouse on a typed triangle with a 120.2° apex (no straight cuts,
+    ladder or collar close around it): the run falls back to the paper's construction, the
+    Mesh panel and the status bar say why, and the paper's stages are drawn as usual."""
     require_pipeline()
     win = main_window
-    verts = FOUR_STAR
+    verts = NO_LAYOUT
     _type_polygon(win, qtbot, verts)
     _choose_blocks_by_mouse(win, qtbot)
     assert win.block_size_spin.isEnabled()

@@ -197,14 +197,19 @@ def test_tip_kite_corners_for_every_tip_angle(theta: float) -> None:
         assert abs(A - 0.5) < 1e-12 and abs(B - 0.5 * np.exp(1j * t)) < 1e-12
 
 
-#: a four-pointed star (30.1° points, 239.9° corners between them): no block layout, ladder or
-#: collar closes
+#: a four-pointed star (30.1° points, 239.9° corners between them): no single cut fits a 239.9°
+#: corner, so no block layout, ladder or collar closed it before twin cuts (now 32 quads)
 FOUR_STAR = np.column_stack(
     [
         np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.cos(np.pi / 2 + np.pi * np.arange(8) / 4),
         np.where(np.arange(8) % 2 == 0, 1.0, 0.3) * np.sin(np.pi / 2 + np.pi * np.arange(8) / 4),
     ]
 )
+
+
+#: a triangle with a 120.2° apex: no cut fits the apex (both parts would need at least 60.5°)
+#: and two cuts do not either, and no ladder or collar closes: blocks fall back
+NO_LAYOUT = np.array([[0.0, 0.0], [2.0, 0.0], [1.0, np.tan(np.radians(29.9))]])
 
 
 def _plain_angles(v: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -324,7 +329,7 @@ def test_two_tip_triangle_kites_meet_at_one_junction() -> None:
 def test_no_layout_falls_back_to_the_paper_and_says_why(capsys) -> None:
     """The fallback message names each route's reason: the cuts', the ladder's (in brackets
     after it) and the collar's."""
-    res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))  # no cuts, ladder, collar
+    res = mesh_polygon(NO_LAYOUT, MeshOptions(method="blocks"))  # no cuts, ladder, collar
     assert res.blocks is None and res.fallback and "paper's construction" in res.fallback
     assert "collar" in res.fallback
     ladder = res.fallback.split("nor does a ladder of straight cells along the polygon (")[1]
@@ -422,11 +427,11 @@ def test_benchmark_reports_block_closure() -> None:
     from quadmesh.benchmark import _mesh_vertices, format_family_table, summarise_families
 
     ok = _mesh_vertices(L_SHAPE, MeshOptions(method="blocks"))
-    fb = _mesh_vertices(FOUR_STAR, MeshOptions(method="blocks"))
+    fb = _mesh_vertices(NO_LAYOUT, MeshOptions(method="blocks"))
     assert ok["status"] == fb["status"] == "meshed"
     assert ok["blocks"] is True and fb["blocks"] is False and ok["quads"] == 192
     base = {"family": "f", "nominal_aspect": None, "aspect": 2.0, "min_edge_over_width": 0.5}
-    rows = [{**base, "name": "a", "n": 6, **ok}, {**base, "name": "b", "n": 8, **fb}]
+    rows = [{**base, "name": "a", "n": 6, **ok}, {**base, "name": "b", "n": 3, **fb}]
     (s,) = summarise_families(rows)
     assert s["meshed"] == 2 and s["blocks_closed"] == 1
     table = format_family_table([s])
@@ -1109,3 +1114,18 @@ def test_a_corner_with_no_single_cut_is_cut_twice() -> None:
     assert sum(corner in c for c in lay.cells.tolist()) == 3  # three parts: two cuts
     xy = np.column_stack([z.real, z.imag])
     _assert_cut_layout_mesh(xy, validate_polygon(xy))
+
+
+def test_the_four_pointed_star_closes_by_twin_cuts() -> None:
+    """The four-pointed star's 239.9° corners have no single cut (both parts would need
+    119.95°); each is cut twice, and the star, which fell back to the paper's construction
+    before, is a block mesh of a few dozen quads with every angle in [60°, 120°] recomputed
+    from the coordinates (its 30.1° points kept whole in tip kites)."""
+    res = mesh_polygon(FOUR_STAR, MeshOptions(method="blocks"))
+    assert res.fallback is None and res.blocks is not None and res.verification.ok
+    assert res.mesh.n_quads < 100
+    zz = res.mesh.z + res.mesh_origin
+    ang = _corner_angles_deg(np.column_stack([zz.real, zz.imag]), res.mesh.quads)
+    new = ang[ang > 31.0]  # the four tips' original 30.1° angles stay whole
+    assert (ang <= 31.0).sum() == 4
+    assert new.min() >= 60.0 - 1e-7 and new.max() <= 120.0 + 1e-7
