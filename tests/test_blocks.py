@@ -1003,7 +1003,7 @@ def test_a_round_whose_face_meshes_leave_a_hanging_vertex_gives_way_to_the_next(
         return pts, next(meshes), None, None
 
     monkeypatch.setattr(blocks, "_lay_out", lambda *a, **k: SimpleNamespace(rest=(face[0],)))
-    monkeypatch.setattr(blocks, "_relaxed_partial", lambda z, partial: None)
+    monkeypatch.setattr(blocks, "_relaxed_partial", lambda z, partial, twins=False: None)
     monkeypatch.setattr(blocks, "mesh_partial_layout", fake_mesh)
     got = _fallback_faces(z, 0.5, rounds, mesh_face=lambda w: None)
     assert [c is r for c, r in zip(calls, rounds)] == [True, True]
