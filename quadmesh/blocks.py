@@ -1995,9 +1995,9 @@ def _twin_corners(
     """The corners of 181.5°–240° (two cuts fit: three parts of at least 60.5°) that no single
     straight cut to the boundary among ``rays`` (the full candidates with one window each)
     serves: they take two cuts (:func:`_windows`).  Pixel-traced outlines have stair corners
-    of 225°–239° whose single cut must meet the far side within a window of 15° down to 2°;
-    scikit-image text_1, text_3 and page_1 close so (7,270, 3,834 and 4,002 quads against
-    80,192–130,613 by the paper's construction)."""
+    of 225°–239° whose single cut must meet the far side within a window of 15° down to 2°
+    (none above 239.5°); scikit-image text_1, text_3 and page_1 close so (7,154–8,175, 6,271
+    and 3,897–4,002 quads against 80,192–130,613 by the paper's construction)."""
     lo = ANGLE_MIN + LAYOUT_MARGIN
     served = {i for r in rays for i, _ in r.slots}
     return frozenset(
@@ -3410,9 +3410,9 @@ def _long_cut_layout(
     when a corner had no straight cut of its own and the candidates were too many for
     T-junction candidates (more than :data:`MAX_RAYS_FOR_TEES`; now up to
     :data:`LONG_MAX_RAYS_FOR_TEES`); then, where a corner had no cut, once more with the
-    corners of 181.5°–240° that no single straight cut serves cut twice (:func:`_twin_corners`:
-    scikit-image text_3 closes so).  None if it fails too, or if neither applies (the search
-    would give the same answer)."""
+    corners of 181.5°–240° that no single straight cut serves cut twice
+    (:func:`_twin_corners`).  None if it fails too, or if neither applies (the search would
+    give the same answer)."""
     timed_out = "no layout within" in why
     if not timed_out and not why.startswith("no straight cut from the corner"):
         return None
