@@ -15,6 +15,12 @@ Stages:
 5. one :class:`~quadmesh.mesh.QuadMesh`, verified (:meth:`QuadMesh.check`). A mesh that
    fails verification is never returned: a :class:`~quadmesh.errors.QuadmeshError`
    subclass naming the stage is raised instead.
+
+A polygon that is one long corridor (a pen stroke) is meshed by a ladder of straight cells
+instead of stages 3–4; one whose thick piece cannot be mapped in floating point (a corridor
+crowds its prevertices) is cut into parts by the corridor routes of :mod:`quadmesh.routes`
+(arms, knotted arms, bridges, chains), each part meshed by :func:`mesh_polygon` again.
+``MeshOptions(method="blocks")`` first tries a block layout (:mod:`quadmesh.blocks`).
 """
 
 from __future__ import annotations
