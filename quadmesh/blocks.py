@@ -128,6 +128,8 @@ JUNCTION_GAP = 0.25
 #: a search with more conflicting pairs than this is given up at once (the integer program
 #: would take minutes to prove that no layout exists, and layouts that close have far fewer)
 MAX_CONFLICTS = 150_000
+#: candidates beyond which the conflict rows stay pairs (:func:`_conflict_cliques`)
+MAX_CLIQUE_CANDIDATES = 6000
 #: hanging points are tested against all sides while points × sides stay below this
 BRUTE_PAIRS = 20_000_000
 #: wall-clock seconds the integer programs of one layout search may take in all
@@ -1220,6 +1222,60 @@ def _point_seg_dist(p: complex, a: complex, b: complex) -> float:
     return abs(p - (a + t * d))
 
 
+def _conflict_cliques(rays: list[_Ray], bad: list[tuple[int, int]]) -> list[list[int]]:
+    """Sets of candidate cuts of which at most one can be chosen, covering every conflicting
+    pair of ``bad``: each becomes one row ``sum <= 1`` of the integer program in place of the
+    rows of all its pairs — fewer rows and a tighter relaxation.  Two candidates exclude each
+    other when they conflict or share a cut slot (each slot is served exactly once), so a set
+    may hold several candidates of one slot.  Greedy: from the candidate with the most
+    uncovered conflicts, its uncovered neighbours by number of exclusions, each taken if it
+    excludes all taken so far.  Above :data:`MAX_CLIQUE_CANDIDATES` candidates (the dense
+    matrices would be large) the pairs themselves.
+
+    Measured (HiGHS 1.12 through ``scipy.optimize.milp``, presolve on; load 2 on 2 cores): the
+    rounds of STIX "A" 3.2 → 0.8 s, cmr10 "W"'s first three 2.9 → 0.5 s, page_1's 1.7 → 1.3 s,
+    each choice as cheap or cheaper (HiGHS stops within its gap tolerance, so the pairwise
+    rows did not always give the optimum); a pixel contour's single round (675 candidates,
+    43,247 pairs, 6,762 sets in 0.2 s) is as slow as before (its time is presolve's)."""
+    n = len(rays)
+    if not bad:
+        return []
+    if n > MAX_CLIQUE_CANDIDATES:
+        return [[int(a), int(b)] for a, b in bad]
+    bb = np.asarray(bad, dtype=np.int64)
+    left = np.zeros((n, n), dtype=bool)  # conflicts not covered yet
+    left[bb[:, 0], bb[:, 1]] = True
+    left[bb[:, 1], bb[:, 0]] = True
+    excl = left.copy()
+    by_slot: dict[tuple[int, int], list[int]] = {}
+    for k, r in enumerate(rays):
+        for s in r.slots:
+            by_slot.setdefault(s, []).append(k)
+    for ks in by_slot.values():
+        if len(ks) > 1:
+            excl[np.ix_(ks, ks)] = True
+    np.fill_diagonal(excl, False)
+    np.fill_diagonal(left, False)
+    deg = excl.sum(axis=1)
+    cliques: list[list[int]] = []
+    for v in np.argsort(-left.sum(axis=1), kind="stable").tolist():
+        while True:
+            cand = np.flatnonzero(left[v])
+            if len(cand) == 0:
+                break
+            cand = cand[np.argsort(-deg[cand], kind="stable")]
+            mask = excl[v].copy()
+            clique = [v]
+            for u in cand.tolist():
+                if mask[u]:
+                    clique.append(u)
+                    mask &= excl[u]
+            c = np.asarray(clique)
+            left[np.ix_(c, c)] = False
+            cliques.append(clique)
+    return cliques
+
+
 def _solve(
     rays: list[_Ray],
     slots: list[tuple[int, int]],
@@ -1228,11 +1284,14 @@ def _solve(
     seconds: float = SEARCH_SECONDS,
     rel_gap: float | None = None,
     unserved_cost: float | None = None,
+    cliques: list[list[int]] | None = None,
 ) -> list[int] | None:
     """The cheapest choice of candidate cuts: one per cut slot, no conflicting pair, every
     T-junction on a chosen cut that reaches past it, no ``nogoods`` set in full; within
     ``rel_gap`` of the optimum when given.  With ``unserved_cost`` a slot may also stay
-    without a cut, at that cost.  None if there is none (or none within ``seconds``)."""
+    without a cut, at that cost.  The conflicts enter as rows over ``cliques`` (default
+    :func:`_conflict_cliques` of ``bad``).  None if there is none (or none within
+    ``seconds``)."""
     nr = len(rays)
     n_var = nr + (len(slots) if unserved_cost is not None else 0)
     sid = {s: k for k, s in enumerate(slots)}
@@ -1246,11 +1305,16 @@ def _solve(
         cols += list(range(nr, n_var))
     A_eq = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(slots), n_var))
     cons = [LinearConstraint(A_eq, 1, 1)]
-    if bad:
-        bb = np.array(bad)
-        k = len(bb)
+    if cliques is None:
+        cliques = _conflict_cliques(rays, bad)
+    if cliques:
+        sizes = [len(c) for c in cliques]
         A_b = coo_matrix(
-            (np.ones(2 * k), (np.repeat(np.arange(k), 2), bb.ravel())), shape=(k, n_var)
+            (
+                np.ones(sum(sizes)),
+                (np.repeat(np.arange(len(cliques)), sizes), np.concatenate(cliques)),
+            ),
+            shape=(len(cliques), n_var),
         )
         cons.append(LinearConstraint(A_b, -np.inf, 1))
     # a T-variant needs a chosen version of the ray it stops on that reaches past its end
@@ -2349,13 +2413,16 @@ def _search(
         return None
     deadline = time.perf_counter() + seconds
     nogoods: list[list[int]] = []
+    cliques = _conflict_cliques(rays, bad)
     for rnd in range(1, MAX_ROUNDS + 1):
         left = deadline - time.perf_counter()
         if left <= 0:
             problems.append(f"no layout within {seconds:.3g} s of search")
             return None
         chosen = (
-            _solve(rays, slots, bad, nogoods, left, rel_gap, UNSERVED_COST if relax else None)
+            _solve(
+                rays, slots, bad, nogoods, left, rel_gap, UNSERVED_COST if relax else None, cliques
+            )
             if slots
             else []
         )

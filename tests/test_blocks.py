@@ -1129,3 +1129,44 @@ def test_the_four_pointed_star_closes_by_twin_cuts() -> None:
     new = ang[ang > 31.0]  # the four tips' original 30.1° angles stay whole
     assert (ang <= 31.0).sum() == 4
     assert new.min() >= 60.0 - 1e-7 and new.max() <= 120.0 + 1e-7
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_conflict_cliques_cover_every_pair_and_keep_the_optimum(seed: int) -> None:
+    """The conflict rows of the cut search are rows over sets of candidates that exclude each
+    other (they conflict, or share a cut slot): every conflicting pair lies in some set, and
+    the cheapest choice is the one the pairwise rows give (random instances: slots served by
+    candidates of one or two slots, random conflicts, exact optimum)."""
+    from itertools import combinations
+
+    from quadmesh.blocks import _conflict_cliques, _Ray, _solve
+
+    rng = np.random.default_rng(seed)
+    n_slots = 12
+    slots = [(i, 0) for i in range(n_slots)]
+    rays = []
+    for _ in range(60):
+        own = [int(rng.integers(n_slots))]
+        if rng.random() < 0.3:
+            own.append(int(rng.integers(n_slots)))
+        own = sorted(set(own))
+        rays.append(_Ray(own[0], 1.0 + 0j, 0j, 0, 0.5, -1, [(i, 0) for i in own], rng.random()))
+    pairs = [(a, b) for a, b in combinations(range(len(rays)), 2) if rng.random() < 0.15]
+    cliques = _conflict_cliques(rays, pairs)
+    adj = {(min(a, b), max(a, b)) for a, b in pairs}
+    shared = {
+        (a, b)
+        for a, b in combinations(range(len(rays)), 2)
+        if set(rays[a].slots) & set(rays[b].slots)
+    }
+    covered = {(min(a, b), max(a, b)) for c in cliques for a, b in combinations(c, 2)}
+    assert adj <= covered  # every conflicting pair lies in a set
+    assert covered <= adj | shared  # and a set holds only candidates that exclude each other
+    cost = np.array([r.cost for r in rays])
+    by_pairs = _solve(rays, slots, pairs, [], 30.0, rel_gap=0.0, cliques=[list(p) for p in pairs])
+    by_cliques = _solve(rays, slots, pairs, [], 30.0, rel_gap=0.0, cliques=cliques)
+    assert (by_pairs is None) == (by_cliques is None)
+    if by_pairs is not None:
+        assert cost[by_cliques].sum() == pytest.approx(cost[by_pairs].sum(), abs=1e-9)
+        chosen = set(by_cliques)
+        assert not any(a in chosen and b in chosen for a, b in pairs)
