@@ -1170,3 +1170,23 @@ def test_conflict_cliques_cover_every_pair_and_keep_the_optimum(seed: int) -> No
         assert cost[by_cliques].sum() == pytest.approx(cost[by_pairs].sum(), abs=1e-9)
         chosen = set(by_cliques)
         assert not any(a in chosen and b in chosen for a, b in pairs)
+
+
+def test_round_polygons_skip_the_ladder_search() -> None:
+    """The ladder (a corridor's cells) is not searched for on a polygon whose area is less
+    than 2.5 times that of its largest inscribed disk; the elongation is the area ratio."""
+    import math
+
+    from quadmesh.blocks import LADDER_MIN_ELONGATION, _elongation
+
+    t = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+    disk = np.exp(1j * t)
+    area = 32.0 * math.sin(2.0 * math.pi / 64)  # the 64-gon's; its inscribed disk: the apothem
+    inscribed = math.pi * math.cos(math.pi / 64) ** 2
+    assert _elongation(disk) == pytest.approx(area / inscribed, rel=1e-3)
+    rect = np.array([0, 20, 20 + 1j, 1j], dtype=np.complex128)
+    assert _elongation(rect) == pytest.approx(20.0 / (math.pi * 0.25), rel=2e-3)
+    why: list[str] = []
+    assert _ladder_mesh(disk, 0.1, why) is None
+    assert "no corridor" in why[-1] and "%" in why[-1]
+    assert _elongation(rect) > LADDER_MIN_ELONGATION > _elongation(disk)
