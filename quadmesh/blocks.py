@@ -3546,7 +3546,9 @@ def _ladder_mesh(
     and more: a round outline of a thousand vertices that is no corridor at all). None
     when no search gives such a mesh: the polygon has no ladder, or the sectors' spokes would
     be long needles (the polygon is too wide for a ladder at this size); each search's reason
-    is then appended to ``why`` when given (a list)."""
+    is then appended to ``why`` when given (a list). Not searched for at all on a round
+    polygon (area below :data:`LADDER_MIN_ELONGATION` times its largest inscribed disk's,
+    :func:`_elongation`), which is no corridor."""
     from .errors import ThinPartError
     from .thin.corridor import SECTOR_RETRY_MAX, ladder_layout, mesh_corridor
 
