@@ -182,12 +182,24 @@ def _tri_key(tri: NDArray[np.int64], n: int) -> NDArray[np.int64]:
     return (t[:, 0] * n + t[:, 1]) * n + t[:, 2]
 
 
+def _edge_groups(
+    tri: NDArray[np.int64],
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Directed edges ``(3T, 2)`` of the triangles, the index of each one's undirected edge
+    (in lexicographic order of its sorted ends) and the count of each undirected edge.  The
+    ends are packed into one integer key (a 1-D ``np.unique`` is many times faster than one
+    over rows, and groups the edges the same way)."""
+    e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=-1).reshape(-1, 2)
+    lo, hi = np.minimum(e[:, 0], e[:, 1]), np.maximum(e[:, 0], e[:, 1])
+    span = int(hi.max()) + 1 if len(hi) else 1
+    _, inv, cnt = np.unique(lo * span + hi, return_inverse=True, return_counts=True)
+    return e, inv.ravel(), cnt
+
+
 def _edges(tri: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Directed edges ``(3T, 2)`` of the triangles and the count of each undirected edge."""
-    e = np.stack([tri, np.roll(tri, -1, axis=1)], axis=-1).reshape(-1, 2)
-    key = np.sort(e, axis=1)
-    _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return e, cnt[inv.ravel()]
+    e, inv, cnt = _edge_groups(tri)
+    return e, cnt[inv]
 
 
 def _clean(tri: NDArray[np.int64]) -> tuple[NDArray[np.int64], bool]:
@@ -195,15 +207,13 @@ def _clean(tri: NDArray[np.int64]) -> tuple[NDArray[np.int64], bool]:
     or three outline edges (spikes, 60° corners) and resolve pinch vertices (two fans of
     triangles meeting at one vertex) by dropping the smaller fan."""
     T = len(tri)
-    e, cnt = _edges(tri)
+    e, inv, counts = _edge_groups(tri)
+    cnt = counts[inv]
     on_outline = (cnt == 1).reshape(T, 3)
     spikes = on_outline.sum(axis=1) >= 2
     if np.any(spikes) and not np.all(spikes):
         return tri[~spikes], True
     # components by shared edges
-    key = np.sort(e, axis=1)
-    _, inv = np.unique(key, axis=0, return_inverse=True)
-    inv = inv.ravel()
     tri_of = np.repeat(np.arange(T), 3)
     order = np.argsort(inv, kind="stable")
     si, st = inv[order], tri_of[order]
